@@ -1,0 +1,105 @@
+#pragma once
+// The scene model of the visual database: plain C++ types, free of SQLite, Assimp and CGAL.
+//
+// Units: lengths in metres, emittance (radiant exitance) in W/m², irradiance in W/m²,
+// reflectance and opacity dimensionless. Frame: right-handed, Z up. A triangle's front is
+// counter-clockwise (right-hand normal).
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+namespace abrad::visdb {
+
+/// Linear radiometric RGB triple.
+using Rgb = glm::dvec3;
+
+/// A diffuse material. `reflectance` ρ in [0,1) per channel, `emittance` E in W/m² (radiant
+/// exitance from the front), `opacity` α in [0,1] (1 = opaque; 1 − α of the light passes).
+struct Material {
+    std::string name;
+    Rgb reflectance{0.5, 0.5, 0.5};
+    Rgb emittance{0.0, 0.0, 0.0};
+    double opacity = 1.0;
+
+    /// A material emits iff some channel of E is positive.
+    bool is_emitter() const { return emittance.x > 0.0 || emittance.y > 0.0 || emittance.z > 0.0; }
+};
+
+/// An indexed triangle mesh in double precision, metres. Triangles index `positions`.
+struct TriangleMesh {
+    std::vector<glm::dvec3> positions;
+    std::vector<glm::u32vec3> triangles;
+};
+
+/// A named piece of the model: one object/group of the source file with one material.
+struct Surface {
+    std::string name;       ///< object or group name from the source file
+    std::string layer;      ///< CAD layer, empty when the format has none
+    std::uint32_t material = 0;  ///< index into Scene::materials
+    std::uint32_t source = 0;    ///< index into Scene::sources
+    TriangleMesh mesh;
+};
+
+/// A pinhole camera. `fov_y_deg` is the full vertical field of view in degrees.
+struct Camera {
+    std::string name;
+    glm::dvec3 position{0.0};
+    glm::dvec3 look_at{0.0, 1.0, 0.0};
+    glm::dvec3 up{0.0, 0.0, 1.0};
+    double fov_y_deg = 60.0;
+};
+
+/// One imported file: where it came from and what the import did to it.
+struct Source {
+    std::string path;         ///< the path as given on the command line
+    std::string format;       ///< "obj", ...
+    std::string checksum;     ///< FNV-1a 64 of the file's bytes, 16 hex digits
+    std::uint64_t size_bytes = 0;
+    std::string unit;         ///< unit of the file before conversion to metres
+    std::string up_axis;      ///< up axis of the file before conversion to Z up
+    std::string imported_at;  ///< ISO 8601 UTC
+    std::string report;       ///< the healing report, one line per item
+};
+
+/// The imported scene: everything a bake reads.
+struct Scene {
+    std::vector<Source> sources;
+    std::vector<Material> materials;
+    std::vector<Surface> surfaces;
+    std::vector<Camera> cameras;
+
+    std::size_t triangle_count() const {
+        std::size_t n = 0;
+        for (const auto& s : surfaces) n += s.mesh.triangles.size();
+        return n;
+    }
+};
+
+/// The mesh a bake produced with its per-vertex shades. Vertices are not shared across
+/// surfaces or across faces of different normals. All arrays indexed by vertex have the
+/// same length; `triangle_surface` has one entry per triangle (index into Scene::surfaces).
+struct BakeMesh {
+    std::vector<glm::dvec3> positions;        ///< metres
+    std::vector<glm::vec3> normals;           ///< unit, the front side
+    std::vector<glm::u32vec3> triangles;
+    std::vector<std::uint32_t> triangle_surface;
+    std::vector<glm::vec3> irradiance;        ///< H, W/m² (or lux), per vertex
+    std::vector<glm::vec3> radiosity;         ///< B = E + ρH, W/m² (or lm/m²), per vertex
+};
+
+/// A stored bake: its settings, what it measured, and its shaded mesh.
+struct Bake {
+    std::int64_t id = 0;           ///< assigned by the store
+    std::string name;
+    std::string created_at;        ///< ISO 8601 UTC
+    std::string unit = "W/m2";     ///< unit of irradiance/radiosity
+    std::vector<std::pair<std::string, std::string>> parameters;  ///< e.g. {"method","abuffer"}
+    std::vector<std::pair<std::string, double>> statistics;       ///< e.g. {"seconds_total",0.4}
+    BakeMesh mesh;
+};
+
+}  // namespace abrad::visdb
