@@ -66,6 +66,8 @@ public:
     /// Stores a bake in one transaction and returns its id. A bake with the same name is
     /// replaced in that same transaction. `progress`, when set, is called with the fraction
     /// written (0..1) while the transaction is open (tests use it to kill the writer).
+    /// `bake.name` must not be empty, and the mesh arrays must agree in length with in-range
+    /// triangle indices; otherwise StoreError and nothing is written. `bake.id` is ignored.
     std::int64_t add_bake(const Bake& bake, const std::function<void(double)>& progress = {});
 
     /// All bakes, oldest first, without meshes.

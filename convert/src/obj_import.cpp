@@ -1,0 +1,1238 @@
+// Wavefront OBJ/MTL import: a strict reader that names FILE:LINE for every bad line, followed by
+// reported healing (welding, ear-clipping triangulation after Eberly, "Triangulation by Ear
+// Clipping" 2002, and removal of degenerate and duplicate triangles).
+//
+// We do not use Assimp or tinyobjloader here: both skip or default malformed numbers and
+// out-of-range indices silently, and the import contract needs a file and line for each.
+//
+// Numeric assumptions: welding and duplicate detection compare converted coordinates exactly
+// (bit equality, with -0 == +0). Triangulation works in double precision in the polygon's
+// Newell plane; its orientation tests are not exact predicates, so polygons that defeat them
+// (self-intersecting, collinear runs) fall back to clipping the most convex corner, which
+// always yields n - 2 triangles; zero-area ones are dropped and counted afterwards.
+
+#include "abrad/convert/obj_import.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <system_error>
+#include <tuple>
+#include <unordered_map>
+#include <utility>
+
+namespace abrad::convert {
+
+namespace {
+
+constexpr double kMaxReflectance = 0.999;         ///< radiosity needs ρ < 1
+constexpr double kDegenerateAreaFactor = 1e-12;   ///< × bbox diagonal², m²
+constexpr double kNonPlanarTolerance = 1e-4;      ///< × polygon extent, before a note
+constexpr std::size_t kNotesPerKind = 5;          ///< repeated healing notes shown per kind
+constexpr std::size_t kUnknownKeywordNotes = 20;  ///< distinct unknown statements shown
+constexpr const char* kDefaultMaterialName = "default";
+
+/// "FILE:LINE: message", or "FILE: message" when `line` is 0.
+std::string located(const std::string& file, std::size_t line, std::string_view message) {
+    std::string s = file;
+    if (line > 0) {
+        s += ':';
+        s += std::to_string(line);
+    }
+    s += ": ";
+    s += message;
+    return s;
+}
+
+/// Quotes a token for a message, shortened so binary junk cannot flood the output.
+std::string quote_token(std::string_view token) {
+    constexpr std::size_t kMax = 40;
+    std::string s = "'";
+    if (token.size() > kMax) {
+        s += token.substr(0, kMax);
+        s += "...";
+    } else {
+        s += token;
+    }
+    s += "'";
+    return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Text input
+
+std::string read_file_bytes(const std::filesystem::path& path, const std::string& display,
+                            std::string_view what) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);
+    if (status.type() == std::filesystem::file_type::not_found) {
+        throw ImportError(display, 0, "no such " + std::string(what));
+    }
+    if (ec)
+        throw ImportError(display, 0, "cannot access " + std::string(what) + ": " + ec.message());
+    if (std::filesystem::is_directory(status)) {
+        throw ImportError(display, 0, "is a directory, not a " + std::string(what));
+    }
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw ImportError(display, 0, "cannot open " + std::string(what));
+    std::ostringstream bytes;
+    if (in.peek() != std::ifstream::traits_type::eof()) bytes << in.rdbuf();
+    if (in.bad()) throw ImportError(display, 0, "cannot read " + std::string(what));
+    return std::move(bytes).str();
+}
+
+bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+std::string_view trim(std::string_view s) {
+    while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
+    while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
+    return s;
+}
+
+/// Splits a line at blanks.
+void split(std::string_view line, std::vector<std::string_view>& tokens) {
+    tokens.clear();
+    std::size_t i = 0;
+    while (i < line.size()) {
+        while (i < line.size() && is_blank(line[i])) ++i;
+        const std::size_t start = i;
+        while (i < line.size() && !is_blank(line[i])) ++i;
+        if (i > start) tokens.push_back(line.substr(start, i - start));
+    }
+}
+
+/// Everything after the statement keyword, trimmed (names may contain blanks).
+std::string_view rest_after_keyword(std::string_view line,
+                                    const std::vector<std::string_view>& tokens) {
+    if (tokens.size() < 2) return {};
+    return trim(line.substr(static_cast<std::size_t>(tokens[1].data() - line.data())));
+}
+
+/// Logical lines of an OBJ or MTL file: CRLF or LF endings, a trailing backslash joins the
+/// next line, `#` starts a comment, a leading UTF-8 byte order mark is skipped.
+class LineReader {
+  public:
+    explicit LineReader(std::string_view text) : m_text(text) {
+        if (m_text.substr(0, 3) == "\xEF\xBB\xBF") m_text.remove_prefix(3);
+    }
+
+    /// The next logical line and the number of its first physical line; false at the end.
+    bool next(std::string_view& line, std::size_t& line_no) {
+        if (m_pos >= m_text.size()) return false;
+        line_no = m_line + 1;
+        std::string_view physical = take_physical();
+        if (!continues(physical)) {
+            line = strip_comment(physical);
+            return true;
+        }
+        // Join continuation lines with one blank in place of each backslash
+        m_joined.assign(without_backslash(physical));
+        while (m_pos < m_text.size()) {
+            m_joined += ' ';
+            physical = take_physical();
+            if (!continues(physical)) {
+                m_joined += physical;
+                break;
+            }
+            m_joined += without_backslash(physical);
+        }
+        line = strip_comment(m_joined);
+        return true;
+    }
+
+  private:
+    std::string_view take_physical() {
+        const std::size_t end = m_text.find('\n', m_pos);
+        const std::size_t stop = end == std::string_view::npos ? m_text.size() : end;
+        std::string_view s = m_text.substr(m_pos, stop - m_pos);
+        m_pos = end == std::string_view::npos ? m_text.size() : end + 1;
+        ++m_line;
+        if (!s.empty() && s.back() == '\r') s.remove_suffix(1);
+        return s;
+    }
+
+    static bool continues(std::string_view s) {
+        const std::string_view t = trim(s);
+        return !t.empty() && t.back() == '\\' && t.front() != '#';
+    }
+
+    static std::string_view without_backslash(std::string_view s) {
+        std::string_view t = trim(s);
+        t.remove_suffix(1);
+        return t;
+    }
+
+    static std::string_view strip_comment(std::string_view s) {
+        const std::size_t hash = s.find('#');
+        return hash == std::string_view::npos ? s : s.substr(0, hash);
+    }
+
+    std::string_view m_text;
+    std::size_t m_pos = 0;
+    std::size_t m_line = 0;
+    std::string m_joined;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Numbers
+
+enum class NumberStatus { kOk, kMalformed, kNonFinite };
+
+/// Parses a whole token as a decimal floating-point number (std::from_chars: no locale, no
+/// trailing junk). A leading '+' is allowed. Overflow is non-finite; underflow gives ±0.
+NumberStatus parse_double(std::string_view token, double& value) {
+    if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+    if (token.empty() || token.front() == '+') return NumberStatus::kMalformed;
+    const char* const first = token.data();
+    const char* const last = first + token.size();
+    double parsed = 0.0;
+    const auto [ptr, ec] = std::from_chars(first, last, parsed, std::chars_format::general);
+    if (ptr != last) return NumberStatus::kMalformed;
+    if (ec == std::errc::result_out_of_range) {
+        // Tell overflow from underflow by the sign of the exponent
+        const std::size_t e = token.find_first_of("eE");
+        if (e != std::string_view::npos && e + 1 < token.size() && token[e + 1] == '-') {
+            value = token.front() == '-' ? -0.0 : 0.0;
+            return NumberStatus::kOk;
+        }
+        return NumberStatus::kNonFinite;
+    }
+    if (ec != std::errc()) return NumberStatus::kMalformed;
+    if (!std::isfinite(parsed)) return NumberStatus::kNonFinite;
+    value = parsed;
+    return NumberStatus::kOk;
+}
+
+/// Parses a whole token as a signed decimal integer.
+bool parse_integer(std::string_view token, std::int64_t& value) {
+    if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+    if (token.empty() || token.front() == '+') return false;
+    const char* const last = token.data() + token.size();
+    const auto [ptr, ec] = std::from_chars(token.data(), last, value);
+    return ec == std::errc() && ptr == last;
+}
+
+/// Converts file units to metres: exactly x / divisor (mm, cm) or x × factor (in, ft), so that
+/// 1234 mm is the double nearest to 1.234 m.
+struct UnitScale {
+    double factor = 1.0;
+    double divisor = 1.0;
+
+    double to_metres(double x) const { return x * factor / divisor; }
+};
+
+UnitScale unit_scale(std::string_view unit) {
+    if (unit == "mm") return {1.0, 1000.0};
+    if (unit == "cm") return {1.0, 100.0};
+    return {metres_per_unit(unit), 1.0};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Notes
+
+/// Statements skipped on purpose: the first occurrence of each keyword is reported with a count.
+class IgnoredStatements {
+  public:
+    void add(std::string_view keyword, std::size_t line) {
+        const auto [it, inserted] = m_index.try_emplace(std::string(keyword), m_entries.size());
+        if (inserted) {
+            m_entries.push_back({std::string(keyword), line, 1});
+        } else {
+            ++m_entries[it->second].count;
+        }
+    }
+
+    /// Appends one note per keyword (first line and count) to `notes`.
+    void flush(const std::string& file, std::vector<std::string>& notes) const {
+        std::size_t unknown_shown = 0;
+        std::size_t unknown_hidden = 0;
+        for (const Entry& e : m_entries) {
+            std::string message;
+            if (e.keyword == "l") {
+                message = "'l' (polyline) statement ignored";
+            } else if (e.keyword == "p") {
+                message = "'p' (point) statement ignored";
+            } else {
+                if (unknown_shown == kUnknownKeywordNotes) {
+                    unknown_hidden += e.count;
+                    continue;
+                }
+                ++unknown_shown;
+                message = "unknown statement " + quote_token(e.keyword) + " ignored";
+            }
+            if (e.count > 1) message += " (" + std::to_string(e.count) + " times, first here)";
+            notes.push_back(located(file, e.first_line, message));
+        }
+        if (unknown_hidden > 0) {
+            notes.push_back(located(
+                file, 0, std::to_string(unknown_hidden) + " further unknown statements ignored"));
+        }
+    }
+
+  private:
+    struct Entry {
+        std::string keyword;
+        std::size_t first_line = 0;
+        std::size_t count = 0;
+    };
+    std::unordered_map<std::string, std::size_t> m_index;
+    std::vector<Entry> m_entries;
+};
+
+/// Healing notes of one kind: the first few verbatim, then a count of the rest.
+class CappedNotes {
+  public:
+    CappedNotes(std::vector<std::string>& notes, std::string rest_label)
+        : m_notes(notes), m_rest_label(std::move(rest_label)) {}
+
+    void add(std::string note) {
+        if (m_count++ < kNotesPerKind) m_notes.push_back(std::move(note));
+    }
+
+    void finish(const std::string& file) {
+        if (m_count > kNotesPerKind) {
+            m_notes.push_back(located(
+                file, 0, std::to_string(m_count - kNotesPerKind) + " more " + m_rest_label));
+        }
+    }
+
+  private:
+    std::vector<std::string>& m_notes;
+    std::string m_rest_label;
+    std::size_t m_count = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// MTL
+
+/// One material as defined by an MTL file.
+struct MtlEntry {
+    visdb::Material material;
+    bool has_d = false;  ///< `d` given: it wins over `Tr`
+    std::string file;
+    std::size_t line = 0;
+};
+
+/// Materials of every MTL library an OBJ file names, first definition of a name kept.
+class MaterialLibrary {
+  public:
+    /// Reads the library at `path` once. A missing file is a note at the mtllib line; a
+    /// malformed one throws ImportError naming the MTL file and line.
+    void load(const std::filesystem::path& path, const std::string& obj_file, std::size_t obj_line,
+              std::vector<std::string>& notes) {
+        const std::string display = path.string();
+        if (!m_loaded.insert(display).second) return;
+        std::error_code ec;
+        if (!std::filesystem::exists(path, ec)) {
+            notes.push_back(located(obj_file, obj_line,
+                                    "material library " + quote_token(display) +
+                                        " not found; its materials get the default"));
+            return;
+        }
+        const std::string text = read_file_bytes(path, display, "material library");
+        parse(text, display, notes);
+    }
+
+    const MtlEntry* find(const std::string& name) const {
+        const auto it = m_index.find(name);
+        return it == m_index.end() ? nullptr : &m_entries[it->second];
+    }
+
+  private:
+    void parse(std::string_view text, const std::string& file, std::vector<std::string>& notes) {
+        LineReader reader(text);
+        std::string_view line;
+        std::size_t line_no = 0;
+        std::vector<std::string_view> tokens;
+        IgnoredStatements ignored;
+        MtlEntry scratch;  // receives a redefinition, validated then dropped
+        MtlEntry* current = nullptr;
+        while (reader.next(line, line_no)) {
+            split(line, tokens);
+            if (tokens.empty()) continue;
+            const std::string_view key = tokens[0];
+            if (key == "newmtl") {
+                const std::string name(rest_after_keyword(line, tokens));
+                if (name.empty()) throw ImportError(file, line_no, "newmtl without a name");
+                if (const MtlEntry* earlier = find(name)) {
+                    notes.push_back(located(
+                        file, line_no,
+                        "material " + quote_token(name) + " defined again; the definition at " +
+                            earlier->file + ":" + std::to_string(earlier->line) + " is kept"));
+                    scratch = MtlEntry{};
+                    current = &scratch;
+                } else {
+                    m_index.emplace(name, m_entries.size());
+                    m_entries.push_back({});
+                    current = &m_entries.back();
+                }
+                current->material.name = name;
+                current->file = file;
+                current->line = line_no;
+                continue;
+            }
+            if (!is_known(key)) {
+                ignored.add(key, line_no);
+                continue;
+            }
+            if (current == nullptr) {
+                notes.push_back(
+                    located(file, line_no, quote_token(key) + " before any newmtl ignored"));
+                continue;
+            }
+            apply(*current, tokens, file, line_no, notes);
+        }
+        ignored.flush(file, notes);
+    }
+
+    static bool is_known(std::string_view key) {
+        static constexpr std::array<std::string_view, 23> kKnown = {
+            "Kd",    "Ke", "d",         "Tr",   "Ka",   "Ks",    "Ns",    "Ni",
+            "illum", "Tf", "sharpness", "bump", "disp", "decal", "refl",  "norm",
+            "Pr",    "Pm", "Ps",        "Pc",   "Pcr",  "aniso", "anisor"};
+        return key.starts_with("map_") ||
+               std::find(kKnown.begin(), kKnown.end(), key) != kKnown.end();
+    }
+
+    /// Reads the numbers tokens[from..]; throws with the MTL location on bad ones.
+    static std::vector<double> numbers(const std::vector<std::string_view>& tokens,
+                                       std::size_t from, const std::string& file,
+                                       std::size_t line) {
+        std::vector<double> values;
+        for (std::size_t i = from; i < tokens.size(); ++i) {
+            double v = 0.0;
+            switch (parse_double(tokens[i], v)) {
+                case NumberStatus::kOk:
+                    values.push_back(v);
+                    break;
+                case NumberStatus::kMalformed:
+                    throw ImportError(file, line,
+                                      "malformed number " + quote_token(tokens[i]) + " in " +
+                                          quote_token(tokens[0]));
+                case NumberStatus::kNonFinite:
+                    throw ImportError(file, line,
+                                      "non-finite value " + quote_token(tokens[i]) + " in " +
+                                          quote_token(tokens[0]));
+            }
+        }
+        return values;
+    }
+
+    /// An RGB triple given as `r` or `r g b`.
+    static visdb::Rgb colour(const std::vector<std::string_view>& tokens, const std::string& file,
+                             std::size_t line) {
+        if (tokens.size() > 1 && (tokens[1] == "spectral" || tokens[1] == "xyz")) {
+            throw ImportError(file, line,
+                              quote_token(tokens[0]) + " " + std::string(tokens[1]) +
+                                  " colours are not supported; give linear RGB");
+        }
+        const std::vector<double> v = numbers(tokens, 1, file, line);
+        if (v.size() == 1) return {v[0], v[0], v[0]};
+        if (v.size() == 3) return {v[0], v[1], v[2]};
+        throw ImportError(
+            file, line,
+            quote_token(tokens[0]) + " needs 1 or 3 numbers, got " + std::to_string(v.size()));
+    }
+
+    static double scalar(const std::vector<std::string_view>& tokens, std::size_t from,
+                         const std::string& file, std::size_t line) {
+        const std::vector<double> v = numbers(tokens, from, file, line);
+        if (v.size() != 1) {
+            throw ImportError(
+                file, line,
+                quote_token(tokens[0]) + " needs 1 number, got " + std::to_string(v.size()));
+        }
+        return v[0];
+    }
+
+    static void apply(MtlEntry& entry, const std::vector<std::string_view>& tokens,
+                      const std::string& file, std::size_t line, std::vector<std::string>& notes) {
+        const std::string_view key = tokens[0];
+        visdb::Material& m = entry.material;
+        if (key == "Kd") {
+            visdb::Rgb rho = colour(tokens, file, line);
+            if (rho.x < 0.0 || rho.y < 0.0 || rho.z < 0.0) {
+                throw ImportError(file, line, "Kd (reflectance) must not be negative");
+            }
+            if (rho.x > kMaxReflectance || rho.y > kMaxReflectance || rho.z > kMaxReflectance) {
+                rho = glm::min(rho, visdb::Rgb(kMaxReflectance));
+                notes.push_back(located(file, line,
+                                        "reflectance of " + quote_token(m.name) +
+                                            " clamped to 0.999 (radiosity needs Kd < 1)"));
+            }
+            m.reflectance = rho;
+        } else if (key == "Ke") {
+            const visdb::Rgb e = colour(tokens, file, line);
+            if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) {
+                throw ImportError(file, line, "Ke (emittance) must not be negative");
+            }
+            m.emittance = e;
+        } else if (key == "d") {
+            const std::size_t from = tokens.size() > 1 && tokens[1] == "-halo" ? 2 : 1;
+            const double d = scalar(tokens, from, file, line);
+            if (d < 0.0 || d > 1.0) throw ImportError(file, line, "d must be in [0, 1]");
+            m.opacity = d;
+            entry.has_d = true;
+        } else if (key == "Tr") {
+            const double tr = scalar(tokens, 1, file, line);
+            if (tr < 0.0 || tr > 1.0) throw ImportError(file, line, "Tr must be in [0, 1]");
+            if (!entry.has_d) {
+                m.opacity = 1.0 - tr;
+                if (tr == 1.0) {
+                    notes.push_back(located(file, line,
+                                            "Tr 1 makes " + quote_token(m.name) +
+                                                " fully transparent (some exporters write Tr "
+                                                "as opacity; give d to be sure)"));
+                }
+            }
+        } else if (key == "Ka" || key == "Ks" || key == "Tf") {
+            // Accepted and ignored; numbers are still checked
+            if (tokens.size() > 1 && (tokens[1] == "spectral" || tokens[1] == "xyz")) return;
+            const std::vector<double> v = numbers(tokens, 1, file, line);
+            if (v.size() != 1 && v.size() != 3) {
+                throw ImportError(
+                    file, line,
+                    quote_token(key) + " needs 1 or 3 numbers, got " + std::to_string(v.size()));
+            }
+        } else if (key == "Ns" || key == "Ni" || key == "illum" || key == "sharpness" ||
+                   key == "Pr" || key == "Pm" || key == "Ps" || key == "Pc" || key == "Pcr" ||
+                   key == "aniso" || key == "anisor") {
+            (void)scalar(tokens, 1, file, line);
+        }
+        // map_*, bump, disp, decal, refl, norm: texture statements, accepted and ignored
+    }
+
+    std::unordered_map<std::string, std::size_t> m_index;
+    std::vector<MtlEntry> m_entries;
+    std::set<std::string> m_loaded;
+};
+
+// ---------------------------------------------------------------------------------------------
+// OBJ
+
+/// One `f` statement: its corners are `corners[first, first + count)`, file vertex indices.
+struct FaceRecord {
+    std::size_t line = 0;
+    std::uint32_t slot = 0;
+    std::size_t first = 0;
+    std::uint32_t count = 0;
+};
+
+/// A face that refers to a vertex, texture coordinate or normal defined later in the file.
+struct ForwardReference {
+    std::size_t line = 0;
+    std::uint64_t max_v = 0;
+    std::uint64_t max_vt = 0;
+    std::uint64_t max_vn = 0;
+};
+
+/// An (object/group, material) pair: one future visdb::Surface.
+struct Slot {
+    std::string name;
+    std::string layer;
+    std::string material;
+    std::size_t first_line = 0;
+};
+
+/// Everything the OBJ statements say, before healing.
+struct ObjData {
+    std::vector<glm::dvec3> positions;  ///< metres, Z up
+    std::size_t texcoords = 0;
+    std::size_t normals = 0;
+    std::vector<std::uint32_t> corners;
+    std::vector<FaceRecord> faces;
+    std::vector<ForwardReference> forward;
+    std::vector<Slot> slots;
+    std::vector<std::pair<std::string, std::size_t>> usemtl;  ///< name, first line
+    std::size_t first_face_without_usemtl = 0;                ///< line, 0 if none
+};
+
+class ObjParser {
+  public:
+    ObjParser(std::string file, std::filesystem::path directory, std::string stem, UnitScale scale,
+              char up, MaterialLibrary& library, std::vector<std::string>& notes)
+        : m_file(std::move(file)),
+          m_directory(std::move(directory)),
+          m_stem(std::move(stem)),
+          m_scale(scale),
+          m_up(up),
+          m_library(library),
+          m_notes(notes) {}
+
+    ObjData parse(std::string_view text) {
+        LineReader reader(text);
+        std::string_view line;
+        std::size_t line_no = 0;
+        std::vector<std::string_view> tokens;
+        while (reader.next(line, line_no)) {
+            split(line, tokens);
+            if (tokens.empty()) continue;
+            const std::string_view key = tokens[0];
+            if (key == "v") {
+                read_vertex(tokens, line_no);
+            } else if (key == "vt") {
+                ++m_data.texcoords;
+            } else if (key == "vn") {
+                ++m_data.normals;
+            } else if (key == "f") {
+                read_face(tokens, line_no);
+            } else if (key == "o") {
+                m_object = std::string(rest_after_keyword(line, tokens));
+                m_group.clear();  // a new object starts outside any group
+                m_slot_valid = false;
+            } else if (key == "g") {
+                m_group = tokens.size() > 1 ? std::string(tokens[1]) : std::string();
+                m_slot_valid = false;
+            } else if (key == "usemtl") {
+                set_material(std::string(rest_after_keyword(line, tokens)), line_no);
+            } else if (key == "mtllib") {
+                for (std::size_t i = 1; i < tokens.size(); ++i) {
+                    const std::filesystem::path name{std::string(tokens[i])};
+                    m_library.load(name.is_absolute() ? name : m_directory / name, m_file, line_no,
+                                   m_notes);
+                }
+            } else if (key == "s") {
+                // smoothing groups do not matter to a diffuse bake
+            } else {
+                m_ignored.add(key, line_no);  // l, p and unknown statements
+            }
+        }
+        m_ignored.flush(m_file, m_notes);
+        check_forward_references();
+        return std::move(m_data);
+    }
+
+  private:
+    [[noreturn]] void fail(std::size_t line, const std::string& message) const {
+        throw ImportError(m_file, line, message);
+    }
+
+    void read_vertex(const std::vector<std::string_view>& tokens, std::size_t line) {
+        const std::size_t values = tokens.size() - 1;
+        if (values < 3) {
+            fail(line,
+                 "too few coordinates on 'v' (need x y z, got " + std::to_string(values) + ")");
+        }
+        if (values > 7) {
+            fail(line,
+                 "too many values on 'v' (x y z [w] [r g b], got " + std::to_string(values) + ")");
+        }
+        std::array<double, 7> v{};
+        for (std::size_t i = 0; i < values; ++i) {
+            switch (parse_double(tokens[i + 1], v[i])) {
+                case NumberStatus::kOk:
+                    break;
+                case NumberStatus::kMalformed:
+                    fail(line, "malformed number " + quote_token(tokens[i + 1]));
+                case NumberStatus::kNonFinite:
+                    fail(line, "non-finite coordinate " + quote_token(tokens[i + 1]));
+            }
+        }
+        if (m_data.positions.size() == std::numeric_limits<std::uint32_t>::max()) {
+            fail(line, "too many vertices (more than 2^32 - 1)");
+        }
+        // Convert to metres, then rotate a Y-up file to Z up
+        const glm::dvec3 p{m_scale.to_metres(v[0]), m_scale.to_metres(v[1]),
+                           m_scale.to_metres(v[2])};
+        m_data.positions.push_back(m_up == 'y' ? glm::dvec3{p.x, -p.z, p.y} : p);
+    }
+
+    /// Resolves one index of a face corner; 0-based result. Positive indices beyond the
+    /// elements read so far are allowed here and checked at the end of the file.
+    std::uint64_t resolve(std::string_view text, std::string_view corner, std::size_t defined,
+                          const char* what, std::size_t line, std::uint64_t& max_forward) const {
+        std::int64_t index = 0;
+        if (!parse_integer(text, index)) {
+            fail(line, "malformed " + std::string(what) + " index " + quote_token(text) +
+                           " in face corner " + quote_token(corner));
+        }
+        if (index == 0) {
+            fail(line, std::string(what) + " index 0 in face corner " + quote_token(corner) +
+                           " (OBJ indices start at 1)");
+        }
+        if (index < 0) {
+            // Relative index: counts back from the last element read so far
+            const std::uint64_t back = static_cast<std::uint64_t>(-(index + 1)) + 1;
+            if (back > defined) {
+                fail(line, std::string(what) + " index " + std::to_string(index) +
+                               " out of range (" + std::to_string(defined) + " defined above)");
+            }
+            return defined - back;
+        }
+        const auto one_based = static_cast<std::uint64_t>(index);
+        if (one_based > std::numeric_limits<std::uint32_t>::max()) {
+            fail(line, std::string(what) + " index " + std::to_string(index) + " out of range");
+        }
+        if (one_based > defined) max_forward = std::max(max_forward, one_based);
+        return one_based - 1;
+    }
+
+    void read_face(const std::vector<std::string_view>& tokens, std::size_t line) {
+        const std::size_t n = tokens.size() - 1;
+        if (n < 3) {
+            fail(line, "face with " + std::to_string(n) + " vertices (at least 3 needed)");
+        }
+        if (n > std::numeric_limits<std::uint32_t>::max()) fail(line, "face too large");
+        ForwardReference forward{line, 0, 0, 0};
+        const std::size_t first = m_data.corners.size();
+        for (std::size_t i = 1; i <= n; ++i) {
+            const std::string_view corner = tokens[i];
+            // Split v[/vt[/vn]] at its slashes
+            std::array<std::string_view, 3> part{};
+            std::size_t parts = 0;
+            std::size_t start = 0;
+            while (true) {
+                const std::size_t slash = corner.find('/', start);
+                if (parts == 3) fail(line, "malformed face corner " + quote_token(corner));
+                part[parts++] =
+                    corner.substr(start, slash == std::string_view::npos ? std::string_view::npos
+                                                                         : slash - start);
+                if (slash == std::string_view::npos) break;
+                start = slash + 1;
+            }
+            const bool well_formed = !part[0].empty() && (parts != 2 || !part[1].empty()) &&
+                                     (parts != 3 || !part[2].empty());
+            if (!well_formed) {
+                fail(line, "malformed face corner " + quote_token(corner) +
+                               " (expected v, v/vt, v//vn or v/vt/vn)");
+            }
+            const std::uint64_t v =
+                resolve(part[0], corner, m_data.positions.size(), "vertex", line, forward.max_v);
+            if (parts >= 2 && !part[1].empty()) {
+                (void)resolve(part[1], corner, m_data.texcoords, "texture coordinate", line,
+                              forward.max_vt);
+            }
+            if (parts == 3) {
+                (void)resolve(part[2], corner, m_data.normals, "normal", line, forward.max_vn);
+            }
+            m_data.corners.push_back(static_cast<std::uint32_t>(v));
+        }
+        if (forward.max_v > 0 || forward.max_vt > 0 || forward.max_vn > 0) {
+            m_data.forward.push_back(forward);
+        }
+        m_data.faces.push_back({line, current_slot(line), first, static_cast<std::uint32_t>(n)});
+        if (m_material.empty() && m_data.first_face_without_usemtl == 0) {
+            m_data.first_face_without_usemtl = line;
+        }
+    }
+
+    void set_material(std::string name, std::size_t line) {
+        if (name.empty()) name = kDefaultMaterialName;
+        const bool seen = std::any_of(m_data.usemtl.begin(), m_data.usemtl.end(),
+                                      [&](const auto& u) { return u.first == name; });
+        if (!seen) m_data.usemtl.emplace_back(name, line);
+        m_material = std::move(name);
+        m_slot_valid = false;
+    }
+
+    std::uint32_t current_slot(std::size_t line) {
+        if (m_slot_valid) return m_slot;
+        // Surface name: object, else group, else file stem; the group is the layer when both
+        Slot key;
+        if (!m_object.empty()) {
+            key.name = m_object;
+            key.layer = m_group;
+        } else {
+            key.name = m_group.empty() ? m_stem : m_group;
+        }
+        key.material = m_material.empty() ? std::string(kDefaultMaterialName) : m_material;
+        const auto [it, inserted] =
+            m_slot_index.try_emplace(std::tie(key.name, key.layer, key.material),
+                                     static_cast<std::uint32_t>(m_data.slots.size()));
+        if (inserted) {
+            key.first_line = line;
+            m_data.slots.push_back(std::move(key));
+        }
+        m_slot = it->second;
+        m_slot_valid = true;
+        return m_slot;
+    }
+
+    void check_forward_references() const {
+        for (const ForwardReference& f : m_data.forward) {
+            if (f.max_v > m_data.positions.size()) {
+                fail(f.line, "vertex index " + std::to_string(f.max_v) + " out of range (" +
+                                 std::to_string(m_data.positions.size()) + " vertices in file)");
+            }
+            if (f.max_vt > m_data.texcoords) {
+                fail(f.line, "texture coordinate index " + std::to_string(f.max_vt) +
+                                 " out of range (" + std::to_string(m_data.texcoords) +
+                                 " in file)");
+            }
+            if (f.max_vn > m_data.normals) {
+                fail(f.line, "normal index " + std::to_string(f.max_vn) + " out of range (" +
+                                 std::to_string(m_data.normals) + " in file)");
+            }
+        }
+    }
+
+    std::string m_file;
+    std::filesystem::path m_directory;
+    std::string m_stem;
+    UnitScale m_scale;
+    char m_up;
+    MaterialLibrary& m_library;
+    std::vector<std::string>& m_notes;
+    ObjData m_data;
+    IgnoredStatements m_ignored;
+    std::string m_object;
+    std::string m_group;
+    std::string m_material;  ///< empty until the first usemtl
+    std::map<std::tuple<std::string, std::string, std::string>, std::uint32_t> m_slot_index;
+    std::uint32_t m_slot = 0;
+    bool m_slot_valid = false;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Healing
+
+/// Exact position key for welding: bit patterns with -0 folded onto +0.
+struct PositionKey {
+    std::array<std::uint64_t, 3> bits;
+    bool operator==(const PositionKey&) const = default;
+};
+
+PositionKey position_key(const glm::dvec3& p) {
+    const auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x == 0.0 ? 0.0 : x); };
+    return {{bits(p.x), bits(p.y), bits(p.z)}};
+}
+
+std::uint64_t mix(std::uint64_t h) {
+    // splitmix64 finaliser
+    h ^= h >> 30;
+    h *= 0xbf58476d1ce4e5b9ULL;
+    h ^= h >> 27;
+    h *= 0x94d049bb133111ebULL;
+    h ^= h >> 31;
+    return h;
+}
+
+struct PositionKeyHash {
+    std::size_t operator()(const PositionKey& k) const {
+        return static_cast<std::size_t>(mix(k.bits[0] ^ mix(k.bits[1] ^ mix(k.bits[2]))));
+    }
+};
+
+struct TriangleKeyHash {
+    std::size_t operator()(const std::array<std::uint32_t, 3>& k) const {
+        return static_cast<std::size_t>(mix((std::uint64_t{k[0]} << 32 | k[1]) ^
+                                            mix(std::uint64_t{k[2]} + 0x9e3779b97f4a7c15ULL)));
+    }
+};
+
+double triangle_area(const std::vector<glm::dvec3>& p, const glm::u32vec3& t) {
+    return 0.5 * glm::length(glm::cross(p[t.y] - p[t.x], p[t.z] - p[t.x]));
+}
+
+double orient(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
+    return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
+
+/// Triangulates one polygon (welded vertex ids, no two cyclically consecutive ids equal, at
+/// least 3) by ear clipping in its Newell plane. Appends exactly ids.size() - 2 triangles in
+/// the polygon's winding. Returns how far the farthest corner lies from the best-fit plane
+/// relative to the polygon's extent (0 for triangles).
+double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<std::uint32_t>& ids,
+                   std::vector<glm::u32vec3>& out) {
+    const std::size_t n = ids.size();
+    if (n == 3) {
+        out.emplace_back(ids[0], ids[1], ids[2]);
+        return 0.0;
+    }
+    // Compute the centroid _c_ and the Newell normal _normal_ (twice the vector area)
+    glm::dvec3 c{0.0};
+    for (const std::uint32_t id : ids) c += positions[id];
+    c /= static_cast<double>(n);
+    glm::dvec3 normal{0.0};
+    for (std::size_t i = 0; i < n; ++i) {
+        normal += glm::cross(positions[ids[i]] - c, positions[ids[(i + 1) % n]] - c);
+    }
+    const double length = glm::length(normal);
+    if (!(length > 0.0) || !std::isfinite(length)) {
+        // No plane (all corners on a line): a fan; the caller drops the zero-area triangles
+        for (std::size_t i = 1; i + 1 < n; ++i) out.emplace_back(ids[0], ids[i], ids[i + 1]);
+        return 0.0;
+    }
+    const glm::dvec3 w = normal / length;
+
+    // Build the plane basis _u_, _v_ with u × v = w, so the polygon projects counter-clockwise
+    const glm::dvec3 axis = std::abs(w.x) <= std::abs(w.y) && std::abs(w.x) <= std::abs(w.z)
+                                ? glm::dvec3{1.0, 0.0, 0.0}
+                                : (std::abs(w.y) <= std::abs(w.z) ? glm::dvec3{0.0, 1.0, 0.0}
+                                                                  : glm::dvec3{0.0, 0.0, 1.0});
+    const glm::dvec3 u = glm::normalize(glm::cross(w, axis));
+    const glm::dvec3 v = glm::cross(w, u);
+    std::vector<glm::dvec2> q(n);
+    glm::dvec3 lo{std::numeric_limits<double>::max()};
+    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
+    double off_plane = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const glm::dvec3 d = positions[ids[i]] - c;
+        q[i] = {glm::dot(d, u), glm::dot(d, v)};
+        off_plane = std::max(off_plane, std::abs(glm::dot(d, w)));
+        lo = glm::min(lo, positions[ids[i]]);
+        hi = glm::max(hi, positions[ids[i]]);
+    }
+    const double extent = glm::length(hi - lo);
+
+    // Clip ears from a doubly linked ring of corners
+    std::vector<std::size_t> prev(n);
+    std::vector<std::size_t> next(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        prev[i] = (i + n - 1) % n;
+        next[i] = (i + 1) % n;
+    }
+    // Does a corner other than a, b, c lie in triangle abc (closed if `inclusive`)? Corners at
+    // the same vertex as a, b or c (the two ends of a bridge to a hole) do not count.
+    const auto blocked = [&](std::size_t a, std::size_t b, std::size_t cc, bool inclusive) {
+        for (std::size_t r = next[cc]; r != a; r = next[r]) {
+            if (ids[r] == ids[a] || ids[r] == ids[b] || ids[r] == ids[cc]) continue;
+            const double o1 = orient(q[a], q[b], q[r]);
+            const double o2 = orient(q[b], q[cc], q[r]);
+            const double o3 = orient(q[cc], q[a], q[r]);
+            const bool inside = inclusive ? (o1 >= 0.0 && o2 >= 0.0 && o3 >= 0.0)
+                                          : (o1 > 0.0 && o2 > 0.0 && o3 > 0.0);
+            if (inside) return true;
+        }
+        return false;
+    };
+    const auto clip = [&](std::size_t b) {
+        out.emplace_back(ids[prev[b]], ids[b], ids[next[b]]);
+        next[prev[b]] = next[b];
+        prev[next[b]] = prev[b];
+    };
+    std::size_t remaining = n;
+    std::size_t cur = 0;
+    std::size_t misses = 0;
+    while (remaining > 3) {
+        const std::size_t a = prev[cur];
+        const std::size_t b = cur;
+        const std::size_t cc = next[cur];
+        if (orient(q[a], q[b], q[cc]) > 0.0 && !blocked(a, b, cc, true)) {
+            clip(b);
+            --remaining;
+            cur = cc;
+            misses = 0;
+            continue;
+        }
+        cur = cc;
+        if (++misses < remaining) continue;
+        // No clean ear in a whole turn (self-intersection, collinear runs, rounding): clip a
+        // convex-or-flat corner with no corner strictly inside, else the most convex corner
+        std::size_t pick = n;
+        std::size_t most_convex = cur;
+        double best = std::numeric_limits<double>::lowest();
+        std::size_t r = cur;
+        for (std::size_t k = 0; k < remaining; ++k, r = next[r]) {
+            const double o = orient(q[prev[r]], q[r], q[next[r]]);
+            if (o > best) {
+                best = o;
+                most_convex = r;
+            }
+            if (pick == n && o >= 0.0 && !blocked(prev[r], r, next[r], false)) pick = r;
+        }
+        if (pick == n) pick = most_convex;
+        cur = next[pick];
+        clip(pick);
+        --remaining;
+        misses = 0;
+    }
+    out.emplace_back(ids[prev[cur]], ids[cur], ids[next[cur]]);
+    return extent > 0.0 ? off_plane / extent : 0.0;
+}
+
+std::string fnv1a64_hex(std::string_view bytes) {
+    std::uint64_t h = 0xcbf29ce484222325ULL;
+    for (const char ch : bytes) {
+        h ^= static_cast<std::uint8_t>(ch);
+        h *= 0x100000001b3ULL;
+    }
+    std::array<char, 17> buf{};
+    std::snprintf(buf.data(), buf.size(), "%016llx", static_cast<unsigned long long>(h));
+    return buf.data();
+}
+
+std::string utc_now_iso8601() {
+    const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    std::array<char, 32> buf{};
+    std::strftime(buf.data(), buf.size(), "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf.data();
+}
+
+std::string format_general(double x) {
+    std::array<char, 32> buf{};
+    std::snprintf(buf.data(), buf.size(), "%.3g", x);
+    return buf.data();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+ImportError::ImportError(std::string file, std::size_t line, const std::string& message)
+    : std::runtime_error(located(file, line, message)), m_file(std::move(file)), m_line(line) {}
+
+double metres_per_unit(std::string_view unit) {
+    if (unit == "mm") return 0.001;
+    if (unit == "cm") return 0.01;
+    if (unit == "m") return 1.0;
+    if (unit == "in") return 0.0254;
+    if (unit == "ft") return 0.3048;
+    throw std::invalid_argument("unknown unit '" + std::string(unit) +
+                                "' (expected mm, cm, m, in or ft)");
+}
+
+std::string ImportReport::to_string() const {
+    std::string s;
+    const auto row = [&s](const char* label, std::size_t value) {
+        s += label;
+        s += ": ";
+        s += std::to_string(value);
+        s += '\n';
+    };
+    row("vertices read", vertices_read);
+    row("faces read", faces_read);
+    row("triangles kept", triangles);
+    row("polygons triangulated", polygons_triangulated);
+    row("vertices welded", vertices_welded);
+    row("degenerate triangles dropped", degenerate_dropped);
+    row("duplicate triangles dropped", duplicates_dropped);
+    row("unused vertices", unused_vertices);
+    row("emitter triangles", emitter_triangles);
+    row("notes", notes.size());
+    for (const std::string& note : notes) {
+        s += "  ";
+        s += note;
+        s += '\n';
+    }
+    return s;
+}
+
+ImportResult import_obj(const std::filesystem::path& path, const ImportOptions& options) {
+    const UnitScale scale = unit_scale(options.unit);  // throws std::invalid_argument
+    if (options.up != 'y' && options.up != 'z') {
+        throw std::invalid_argument(std::string("up axis must be 'y' or 'z', got '") + options.up +
+                                    "'");
+    }
+    const std::string file = path.string();
+    const std::string bytes = read_file_bytes(path, file, "file");
+
+    ImportResult result;
+    ImportReport& report = result.report;
+
+    // Read the statements of the OBJ file and its material libraries
+    MaterialLibrary library;
+    ObjParser parser(file, path.parent_path(), path.stem().string(), scale, options.up, library,
+                     report.notes);
+    const ObjData data = parser.parse(bytes);
+    report.vertices_read = data.positions.size();
+    report.faces_read = data.faces.size();
+    if (data.faces.empty()) throw ImportError(file, 0, "no faces to import");
+
+    // Weld exactly equal positions across the whole file
+    std::vector<glm::dvec3> welded;
+    std::vector<std::uint32_t> weld_of(data.positions.size());
+    {
+        std::unordered_map<PositionKey, std::uint32_t, PositionKeyHash> index;
+        index.reserve(data.positions.size());
+        for (std::size_t i = 0; i < data.positions.size(); ++i) {
+            const auto [it, inserted] = index.try_emplace(
+                position_key(data.positions[i]), static_cast<std::uint32_t>(welded.size()));
+            if (inserted) welded.push_back(data.positions[i]);
+            weld_of[i] = it->second;
+        }
+    }
+    report.vertices_welded = data.positions.size() - welded.size();
+
+    // Count unused file vertices and bound the used ones
+    std::vector<bool> used(data.positions.size(), false);
+    for (const std::uint32_t corner : data.corners) used[corner] = true;
+    report.unused_vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), false));
+    glm::dvec3 lo{std::numeric_limits<double>::max()};
+    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
+    for (std::size_t i = 0; i < used.size(); ++i) {
+        if (!used[i]) continue;
+        lo = glm::min(lo, data.positions[i]);
+        hi = glm::max(hi, data.positions[i]);
+    }
+    const double diagonal = glm::length(hi - lo);
+    const double min_area = kDegenerateAreaFactor * diagonal * diagonal;
+
+    // Triangulate each face, then drop degenerate and duplicate triangles
+    CappedNotes degenerate_notes(report.notes, "faces with degenerate triangles");
+    CappedNotes duplicate_notes(report.notes, "faces with duplicate triangles");
+    CappedNotes planarity_notes(report.notes, "non-planar polygons triangulated");
+    std::vector<std::vector<glm::u32vec3>> slot_triangles(data.slots.size());
+    std::unordered_map<std::array<std::uint32_t, 3>, std::size_t, TriangleKeyHash> seen;
+    std::vector<std::uint32_t> ids;
+    std::vector<glm::u32vec3> triangles;
+    for (const FaceRecord& face : data.faces) {
+        if (face.count > 3) ++report.polygons_triangulated;
+        // Drop corners repeating the previous one (each would make one zero-area triangle)
+        ids.clear();
+        for (std::size_t k = 0; k < face.count; ++k) {
+            const std::uint32_t id = weld_of[data.corners[face.first + k]];
+            if (ids.empty() || ids.back() != id) ids.push_back(id);
+        }
+        while (ids.size() > 1 && ids.front() == ids.back()) ids.pop_back();
+        if (ids.size() < 3) {
+            report.degenerate_dropped += face.count - 2;
+            degenerate_notes.add(located(file, face.line,
+                                         "face has fewer than 3 distinct vertices; " +
+                                             std::to_string(face.count - 2) +
+                                             " degenerate triangle(s) dropped"));
+            continue;
+        }
+        if (ids.size() < face.count) {
+            report.degenerate_dropped += face.count - ids.size();
+            degenerate_notes.add(located(file, face.line,
+                                         "repeated vertex in face; " +
+                                             std::to_string(face.count - ids.size()) +
+                                             " degenerate triangle(s) dropped"));
+        }
+        triangles.clear();
+        const double off_plane = triangulate(welded, ids, triangles);
+        if (off_plane > kNonPlanarTolerance) {
+            planarity_notes.add(located(file, face.line,
+                                        "polygon not planar (corners " +
+                                            format_general(off_plane * 100.0) +
+                                            "% of its size off the best-fit plane); "
+                                            "triangulated"));
+        }
+        std::size_t degenerate = 0;
+        std::size_t duplicate = 0;
+        std::size_t duplicate_of = 0;  // line of the first earlier triangle repeated
+        for (const glm::u32vec3& t : triangles) {
+            const bool repeated = t.x == t.y || t.y == t.z || t.x == t.z;
+            const double area = repeated ? 0.0 : triangle_area(welded, t);
+            if (repeated || area < min_area || area == 0.0) {
+                ++degenerate;
+                continue;
+            }
+            std::array<std::uint32_t, 3> key{t.x, t.y, t.z};
+            std::sort(key.begin(), key.end());
+            const auto [it, inserted] = seen.try_emplace(key, face.line);
+            if (!inserted) {
+                if (duplicate++ == 0) duplicate_of = it->second;
+                continue;
+            }
+            slot_triangles[face.slot].push_back(t);
+        }
+        if (degenerate > 0) {
+            report.degenerate_dropped += degenerate;
+            degenerate_notes.add(located(
+                file, face.line,
+                std::to_string(degenerate) + " degenerate (zero-area) triangle(s) dropped"));
+        }
+        if (duplicate > 0) {
+            report.duplicates_dropped += duplicate;
+            duplicate_notes.add(located(file, face.line,
+                                        std::to_string(duplicate) +
+                                            " triangle(s) repeating the face of line " +
+                                            std::to_string(duplicate_of) + " dropped"));
+        }
+    }
+    degenerate_notes.finish(file);
+    duplicate_notes.finish(file);
+    planarity_notes.finish(file);
+
+    // Report material names no library defines
+    for (const auto& [name, line] : data.usemtl) {
+        if (library.find(name) == nullptr) {
+            report.notes.push_back(located(file, line,
+                                           "material " + quote_token(name) +
+                                               " is not defined; it gets the default "
+                                               "(reflectance 0.5, emittance 0, opacity 1)"));
+        }
+    }
+    if (data.first_face_without_usemtl > 0 && library.find(kDefaultMaterialName) == nullptr) {
+        report.notes.push_back(located(file, data.first_face_without_usemtl,
+                                       "faces without usemtl get the default material "
+                                       "(reflectance 0.5, emittance 0, opacity 1)"));
+    }
+
+    // Assemble surfaces with compact vertex arrays, and the materials they use
+    visdb::Scene& scene = result.scene;
+    std::unordered_map<std::string, std::uint32_t> material_index;
+    std::vector<std::uint32_t> local(welded.size(), std::numeric_limits<std::uint32_t>::max());
+    for (std::size_t s = 0; s < data.slots.size(); ++s) {
+        const Slot& slot = data.slots[s];
+        std::vector<glm::u32vec3>& tris = slot_triangles[s];
+        if (tris.empty()) {
+            report.notes.push_back(located(file, slot.first_line,
+                                           "surface " + quote_token(slot.name) + " with material " +
+                                               quote_token(slot.material) +
+                                               " has no triangles left; omitted"));
+            continue;
+        }
+        const auto [mit, added] = material_index.try_emplace(
+            slot.material, static_cast<std::uint32_t>(scene.materials.size()));
+        if (added) {
+            const MtlEntry* entry = library.find(slot.material);
+            visdb::Material m = entry != nullptr ? entry->material : visdb::Material{};
+            m.name = slot.material;
+            scene.materials.push_back(std::move(m));
+        }
+        visdb::Surface surface;
+        surface.name = slot.name;
+        surface.layer = slot.layer;
+        surface.material = mit->second;
+        surface.source = 0;
+        std::vector<std::uint32_t> touched;
+        for (glm::u32vec3& t : tris) {
+            for (int k = 0; k < 3; ++k) {
+                std::uint32_t& l = local[t[k]];
+                if (l == std::numeric_limits<std::uint32_t>::max()) {
+                    l = static_cast<std::uint32_t>(surface.mesh.positions.size());
+                    surface.mesh.positions.push_back(welded[t[k]]);
+                    touched.push_back(t[k]);
+                }
+                t[k] = l;
+            }
+        }
+        for (const std::uint32_t id : touched)
+            local[id] = std::numeric_limits<std::uint32_t>::max();
+        surface.mesh.triangles = std::move(tris);
+        report.triangles += surface.mesh.triangles.size();
+        if (scene.materials[surface.material].is_emitter()) {
+            report.emitter_triangles += surface.mesh.triangles.size();
+        }
+        scene.surfaces.push_back(std::move(surface));
+    }
+    if (report.triangles == 0) {
+        throw ImportError(file, 0,
+                          "no triangles left after healing (" +
+                              std::to_string(report.degenerate_dropped) + " degenerate, " +
+                              std::to_string(report.duplicates_dropped) + " duplicate)");
+    }
+
+    // Record where the scene came from
+    visdb::Source source;
+    source.path = file;
+    source.format = "obj";
+    source.checksum = fnv1a64_hex(bytes);
+    source.size_bytes = bytes.size();
+    source.unit = options.unit;
+    source.up_axis = std::string(1, options.up);
+    source.imported_at = utc_now_iso8601();
+    source.report = report.to_string();
+    scene.sources.push_back(std::move(source));
+    return result;
+}
+
+}  // namespace abrad::convert

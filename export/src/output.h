@@ -1,0 +1,165 @@
+#pragma once
+// Private helpers of the writers: mesh validation, number formatting, and an output file
+// that is written to `PATH.tmp` and renamed to `PATH` only when every byte reached the disk.
+
+#include <cerrno>
+#include <charconv>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <utility>
+
+#include "abrad/export/writers.h"
+
+namespace abrad::exporter::detail {
+
+/// `PATH: MESSAGE` as an ExportError.
+[[noreturn]] inline void fail(const std::filesystem::path& path, std::string_view message) {
+    throw ExportError(path.string() + ": " + std::string(message));
+}
+
+/// Checks what both writers need of a BakeMesh: every per-vertex array as long as
+/// `positions`, one surface id per triangle, every index below the vertex count, and counts
+/// and ids that fit the `int` of the PLY contract. Throws ExportError naming `path`.
+inline void validate_bake_mesh(const std::filesystem::path& path, const visdb::BakeMesh& mesh) {
+    const std::size_t n = mesh.positions.size();
+    const auto check_length = [&](std::size_t size, const char* what) {
+        if (size != n) {
+            fail(path, std::string("invalid mesh: ") + what + " has " + std::to_string(size) +
+                           " entries, positions has " + std::to_string(n));
+        }
+    };
+    check_length(mesh.normals.size(), "normals");
+    check_length(mesh.irradiance.size(), "irradiance");
+    check_length(mesh.radiosity.size(), "radiosity");
+    if (mesh.triangle_surface.size() != mesh.triangles.size()) {
+        fail(path, "invalid mesh: triangle_surface has " +
+                       std::to_string(mesh.triangle_surface.size()) + " entries for " +
+                       std::to_string(mesh.triangles.size()) + " triangles");
+    }
+    constexpr auto kIntMax = static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max());
+    if (n > kIntMax) fail(path, "invalid mesh: too many vertices (" + std::to_string(n) + ")");
+    if (mesh.triangles.size() > kIntMax) {
+        fail(path, "invalid mesh: too many triangles (" + std::to_string(mesh.triangles.size()) +
+                       ")");
+    }
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        const auto& tri = mesh.triangles[t];
+        for (int k = 0; k < 3; ++k) {
+            if (tri[k] >= n) {
+                fail(path, "invalid mesh: triangle " + std::to_string(t) + " index " +
+                               std::to_string(tri[k]) + " out of range (" + std::to_string(n) +
+                               " vertices)");
+            }
+        }
+        if (mesh.triangle_surface[t] > kIntMax) {
+            fail(path, "invalid mesh: triangle " + std::to_string(t) + " surface id " +
+                           std::to_string(mesh.triangle_surface[t]) + " does not fit an int");
+        }
+    }
+}
+
+/// Appends the shortest text that reads back as exactly `value` (double or float).
+template <typename T>
+void append_exact(std::string& out, T value) {
+    char buf[64];
+    const auto res = std::to_chars(buf, buf + sizeof buf, value);
+    out.append(buf, res.ptr);
+}
+
+/// Appends `value` with `decimals` fixed decimals.
+inline void append_fixed(std::string& out, double value, int decimals) {
+    char buf[400];  // fixed notation of the largest double needs ~310 characters
+    const auto res = std::to_chars(buf, buf + sizeof buf, value, std::chars_format::fixed, decimals);
+    out.append(buf, res.ptr);
+}
+
+/// Replaces whitespace and control characters with `_` so a name is one OBJ/MTL token.
+inline std::string sanitise_name(std::string_view name) {
+    std::string out(name);
+    for (char& c : out) {
+        const auto u = static_cast<unsigned char>(c);
+        if (u <= 0x20 || u == 0x7f) c = '_';
+    }
+    return out;
+}
+
+/// A file written to `PATH.tmp` and renamed to `PATH` by commit(). Destroying it without a
+/// successful commit() removes the temporary, so a failure never leaves a half file at
+/// `PATH` (nor a stray `PATH.tmp`). Errors are ExportError "PATH: cannot write: <strerror>".
+class AtomicFile {
+public:
+    explicit AtomicFile(std::filesystem::path path)
+        : m_path(std::move(path)), m_tmp(m_path.string() + ".tmp") {
+        errno = 0;
+        m_file = std::fopen(m_tmp.c_str(), "wb");
+        if (m_file == nullptr) fail_io(errno);
+    }
+    AtomicFile(const AtomicFile&) = delete;
+    AtomicFile& operator=(const AtomicFile&) = delete;
+    ~AtomicFile() {
+        if (m_file != nullptr) std::fclose(m_file);
+        if (!m_committed) {
+            std::error_code ec;
+            std::filesystem::remove(m_tmp, ec);
+        }
+    }
+
+    /// Writes `bytes` (buffered by stdio).
+    void write(std::string_view bytes) {
+        if (bytes.empty()) return;
+        errno = 0;
+        if (std::fwrite(bytes.data(), 1, bytes.size(), m_file) != bytes.size()) fail_io(errno);
+    }
+
+    /// Writes `buffer` once it holds at least `threshold` bytes, then clears it.
+    void write_if_full(std::string& buffer, std::size_t threshold = std::size_t{1} << 20) {
+        if (buffer.size() >= threshold) {
+            write(buffer);
+            buffer.clear();
+        }
+    }
+
+    /// Flushes and closes the temporary; the file is complete but not yet at `PATH`.
+    void close() {
+        if (m_file == nullptr) return;
+        errno = 0;
+        const bool flushed = std::fflush(m_file) == 0;
+        const int flush_errno = errno;
+        errno = 0;
+        const bool closed = std::fclose(m_file) == 0;
+        m_file = nullptr;
+        if (!flushed) fail_io(flush_errno);
+        if (!closed) fail_io(errno);
+    }
+
+    /// Closes the temporary and renames it to `PATH`.
+    void commit() {
+        close();
+        std::error_code ec;
+        std::filesystem::rename(m_tmp, m_path, ec);
+        if (ec) fail(m_path, "cannot write: " + ec.message());
+        m_committed = true;
+    }
+
+    const std::filesystem::path& path() const { return m_path; }
+
+private:
+    [[noreturn]] void fail_io(int err) const {
+        // strerror text, without strerror's shared buffer
+        fail(m_path, "cannot write: " + (err != 0 ? std::generic_category().message(err)
+                                                  : std::string("unknown I/O error")));
+    }
+
+    std::filesystem::path m_path;
+    std::filesystem::path m_tmp;
+    std::FILE* m_file = nullptr;
+    bool m_committed = false;
+};
+
+}  // namespace abrad::exporter::detail

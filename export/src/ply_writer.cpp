@@ -1,0 +1,148 @@
+// The PLY writer: the contract of DESIGN.md, "Exported PLY".
+
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <type_traits>
+
+#include "abrad/export/writers.h"
+#include "output.h"
+
+namespace abrad::exporter {
+
+namespace {
+
+/// Appends `value` as little-endian bytes whatever the host's byte order.
+template <typename T>
+void append_le(std::string& out, T value) {
+    using Bits = std::conditional_t<sizeof(T) == 8, std::uint64_t,
+                                    std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint8_t>>;
+    static_assert(sizeof(Bits) == sizeof(T));
+    const auto bits = std::bit_cast<Bits>(value);
+    for (std::size_t i = 0; i < sizeof(T); ++i) {
+        out.push_back(static_cast<char>(static_cast<unsigned char>((bits >> (8 * i)) & 0xffu)));
+    }
+}
+
+/// The header of the contract for `n` vertices and `m` faces.
+std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options) {
+    std::string h = "ply\n";
+    h += options.ascii ? "format ascii 1.0\n" : "format binary_little_endian 1.0\n";
+    // One `comment` line per line of the comment, so a newline cannot break the header
+    std::string_view rest = options.comment;
+    while (!rest.empty()) {
+        const auto eol = rest.find_first_of("\r\n");
+        h += "comment ";
+        h += rest.substr(0, eol);
+        h += '\n';
+        if (eol == std::string_view::npos) break;
+        rest.remove_prefix(eol + 1);
+    }
+    h += "element vertex " + std::to_string(n) + "\n";
+    h +=
+        "property double x\n"
+        "property double y\n"
+        "property double z\n"
+        "property float nx\n"
+        "property float ny\n"
+        "property float nz\n"
+        "property uchar red\n"
+        "property uchar green\n"
+        "property uchar blue\n"
+        "property float irradiance_r\n"
+        "property float irradiance_g\n"
+        "property float irradiance_b\n"
+        "property float radiosity_r\n"
+        "property float radiosity_g\n"
+        "property float radiosity_b\n";
+    h += "element face " + std::to_string(m) + "\n";
+    h +=
+        "property list uchar int vertex_indices\n"
+        "property int surface\n"
+        "end_header\n";
+    return h;
+}
+
+/// Appends one vertex's record in the binary body.
+void append_vertex_binary(std::string& out, const visdb::BakeMesh& mesh, std::size_t i,
+                          const std::array<std::uint8_t, 3>& rgb) {
+    const auto& p = mesh.positions[i];
+    const auto& n = mesh.normals[i];
+    const auto& h = mesh.irradiance[i];
+    const auto& b = mesh.radiosity[i];
+    for (int k = 0; k < 3; ++k) append_le(out, static_cast<double>(p[k]));
+    for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(n[k]));
+    for (const auto c : rgb) append_le(out, c);
+    for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(h[k]));
+    for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(b[k]));
+}
+
+/// Appends one vertex's line in the ASCII body, with round-trip precision.
+void append_vertex_ascii(std::string& out, const visdb::BakeMesh& mesh, std::size_t i,
+                         const std::array<std::uint8_t, 3>& rgb) {
+    const auto& p = mesh.positions[i];
+    const auto& n = mesh.normals[i];
+    const auto& h = mesh.irradiance[i];
+    const auto& b = mesh.radiosity[i];
+    bool first = true;
+    const auto put = [&](auto value) {
+        if (!first) out += ' ';
+        first = false;
+        if constexpr (std::is_same_v<decltype(value), std::uint8_t>) {
+            out += std::to_string(value);
+        } else {
+            detail::append_exact(out, value);
+        }
+    };
+    for (int k = 0; k < 3; ++k) put(static_cast<double>(p[k]));
+    for (int k = 0; k < 3; ++k) put(static_cast<float>(n[k]));
+    for (const auto c : rgb) put(c);
+    for (int k = 0; k < 3; ++k) put(static_cast<float>(h[k]));
+    for (int k = 0; k < 3; ++k) put(static_cast<float>(b[k]));
+    out += '\n';
+}
+
+}  // namespace
+
+void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh,
+               const ToneMap& tone, const PlyOptions& options) {
+    // Validate before anything touches the disk
+    detail::validate_bake_mesh(path, mesh);
+
+    detail::AtomicFile file(path);
+    std::string buf = ply_header(mesh.positions.size(), mesh.triangles.size(), options);
+
+    // Write the vertex element
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+        const auto rgb = display_colour(mesh.radiosity[i], tone);
+        if (options.ascii) {
+            append_vertex_ascii(buf, mesh, i, rgb);
+        } else {
+            append_vertex_binary(buf, mesh, i, rgb);
+        }
+        file.write_if_full(buf);
+    }
+
+    // Write the face element: `3 a b c surface`
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        const auto& tri = mesh.triangles[t];
+        // validate_bake_mesh checked that indices and ids fit an int
+        const auto surface = static_cast<std::int32_t>(mesh.triangle_surface[t]);
+        if (options.ascii) {
+            buf += "3 " + std::to_string(tri[0]) + ' ' + std::to_string(tri[1]) + ' ' +
+                   std::to_string(tri[2]) + ' ' + std::to_string(surface) + '\n';
+        } else {
+            append_le(buf, std::uint8_t{3});
+            for (int k = 0; k < 3; ++k) append_le(buf, static_cast<std::int32_t>(tri[k]));
+            append_le(buf, surface);
+        }
+        file.write_if_full(buf);
+    }
+
+    file.write(buf);
+    file.commit();
+}
+
+}  // namespace abrad::exporter

@@ -1,0 +1,73 @@
+// Tone mapping of linear radiosity to 8-bit sRGB display colours.
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include "abrad/export/writers.h"
+
+namespace abrad::exporter {
+
+namespace {
+
+/// The value v' of 1 - exp(-exposure v) that the 95th percentile luminance maps to.
+constexpr double kPercentileTarget = 0.8;
+constexpr double kPercentile = 0.95;
+
+/// Rec. 709 / sRGB relative luminance of a linear RGB triple.
+double luminance(const glm::vec3& c) {
+    return 0.2126 * static_cast<double>(c.r) + 0.7152 * static_cast<double>(c.g) +
+           0.0722 * static_cast<double>(c.b);
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0,1].
+double srgb_encode(double v) {
+    return v < 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+
+/// 8-bit code of one channel: clamp the tone-mapped value, encode, round.
+std::uint8_t channel_byte(float radiosity, double exposure) {
+    // NaN and negative radiosity show as black
+    const double v = radiosity > 0.0f ? static_cast<double>(radiosity) : 0.0;
+    const double mapped = 1.0 - std::exp(-exposure * v);
+    const double encoded = srgb_encode(std::clamp(mapped, 0.0, 1.0));
+    return static_cast<std::uint8_t>(std::lround(std::clamp(encoded, 0.0, 1.0) * 255.0));
+}
+
+}  // namespace
+
+ToneMap auto_tone_map(const visdb::BakeMesh& mesh) {
+    // Collect the finite vertex luminances _ys_
+    std::vector<double> ys;
+    ys.reserve(mesh.radiosity.size());
+    for (const auto& b : mesh.radiosity) {
+        const double y = luminance(b);
+        if (std::isfinite(y)) ys.push_back(y);
+    }
+    if (ys.empty()) return ToneMap{.exposure = 1.0};
+
+    // Find the 95th percentile _y95_, interpolating linearly between the closest ranks
+    const double pos = kPercentile * static_cast<double>(ys.size() - 1);
+    const auto lo = static_cast<std::size_t>(std::floor(pos));
+    const std::size_t hi = std::min(lo + 1, ys.size() - 1);
+    std::nth_element(ys.begin(), ys.begin() + static_cast<std::ptrdiff_t>(lo), ys.end());
+    const double y_lo = ys[lo];
+    double y_hi = y_lo;
+    if (hi != lo) {
+        // After nth_element the smallest of the upper part is the next rank
+        y_hi = *std::min_element(ys.begin() + static_cast<std::ptrdiff_t>(hi), ys.end());
+    }
+    const double y95 = y_lo + (pos - static_cast<double>(lo)) * (y_hi - y_lo);
+
+    // Solve 1 - exp(-exposure y95) = 0.8 for _exposure_; an all-dark mesh keeps exposure 1
+    if (!(y95 > 0.0)) return ToneMap{.exposure = 1.0};
+    return ToneMap{.exposure = -std::log(1.0 - kPercentileTarget) / y95};
+}
+
+std::array<std::uint8_t, 3> display_colour(const glm::vec3& radiosity, const ToneMap& tone) {
+    return {channel_byte(radiosity.r, tone.exposure), channel_byte(radiosity.g, tone.exposure),
+            channel_byte(radiosity.b, tone.exposure)};
+}
+
+}  // namespace abrad::exporter

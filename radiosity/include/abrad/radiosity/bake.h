@@ -1,0 +1,54 @@
+#pragma once
+// The bake: one shooting iteration per light-source triangle with the A-buffer (or Z-buffer)
+// hemicube, then a radiosity value at every vertex (Wang et al., "Using A-Buffer in
+// Radiosity", section 3.5).
+
+#include <cstddef>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "abrad/radiosity/shoot.h"
+#include "abrad/visdb/model.h"
+
+namespace abrad::radiosity {
+
+/// How vertex shades are computed.
+enum class Shading {
+    Exact,  ///< exact direct irradiance at each vertex, occluders from the fragment lists
+    Patch,  ///< area-weighted irradiance of the vertex's patches from the hemicube (the paper)
+};
+
+/// Settings of a bake. Defaults are the documented command-line defaults.
+struct BakeOptions {
+    std::string name;  ///< stored bake name; empty = "bake-<n>" chosen by the caller
+    Visibility method = Visibility::ABuffer;
+    int resolution = 50;  ///< hemicube resolution R (even)
+    int subpixels = 8;    ///< A-buffer mask side
+    int bounces = 0;      ///< 0 = direct light only (the paper's setting); more not yet built
+    Shading shading = Shading::Exact;
+    int threads = 0;      ///< 0 = all cores
+};
+
+/// Bad bake settings or a scene that cannot be baked (no lights...): the caller exits 2.
+class BakeError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+/// Progress of a long bake: a stage name and `done` of `total` units.
+using ProgressFn = std::function<void(std::string_view stage, std::size_t done, std::size_t total)>;
+
+/// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces 0, threads >= 0);
+/// throws BakeError naming the option and value.
+void validate(const BakeOptions& options);
+
+/// Bakes direct light into `scene`. The result's mesh has one vertex per (surface, position,
+/// face normal); parameters and statistics are filled, `name` is options.name.
+visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
+                 const ProgressFn& progress = {});
+
+std::string to_string(Shading shading);
+
+}  // namespace abrad::radiosity

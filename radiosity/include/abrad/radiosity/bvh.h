@@ -1,0 +1,62 @@
+#pragma once
+// A bounding-volume hierarchy of axis-aligned boxes over triangles, for conservative
+// "which patches can lie in this region" queries (median split on the longest axis).
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "abrad/radiosity/shoot.h"
+
+namespace abrad::radiosity {
+
+/// An axis-aligned box, metres.
+struct Box {
+    glm::dvec3 lo{1e300}, hi{-1e300};
+    void grow(const glm::dvec3& p);
+    void grow(const Box& b);
+    bool overlaps(const Box& b) const;
+};
+
+/// A static BVH over patches; leaves hold up to 4 patches.
+class Bvh {
+public:
+    explicit Bvh(std::span<const Patch> patches);
+
+    /// Calls `visit(patch_index)` for every patch whose box overlaps `query`.
+    template <typename Visit>
+    void query(const Box& query, Visit&& visit) const {
+        if (m_nodes.empty()) return;
+        std::uint32_t stack[64];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& n = m_nodes[stack[--top]];
+            if (!n.box.overlaps(query)) continue;
+            if (n.count > 0) {
+                for (std::uint32_t i = 0; i < n.count; ++i)
+                    if (m_boxes[m_order[n.first + i]].overlaps(query)) visit(m_order[n.first + i]);
+            } else {
+                stack[top++] = n.first;
+                stack[top++] = n.first + 1;
+            }
+        }
+    }
+
+private:
+    struct Node {
+        Box box;
+        std::uint32_t first = 0;  // first child (inner) or first index into m_order (leaf)
+        std::uint32_t count = 0;  // patches in a leaf, 0 for inner nodes
+    };
+    void build(std::uint32_t self, std::uint32_t begin, std::uint32_t end, int depth);
+
+    std::vector<Box> m_boxes;
+    std::vector<glm::dvec3> m_centres;
+    std::vector<std::uint32_t> m_order;
+    std::vector<Node> m_nodes;
+};
+
+}  // namespace abrad::radiosity

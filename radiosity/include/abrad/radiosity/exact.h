@@ -1,0 +1,36 @@
+#pragma once
+// Exact direct illumination at a point from a Lambertian polygonal light with polygonal
+// occluders: the light clipped to the point's hemisphere, minus the central projections of
+// the occluders onto the light's plane, through Lambert's point-to-polygon form factor
+// (Baum, Rushmeier & Winget 1989; ALGORITHMS.md section 7).
+//
+// Numeric assumptions: projections and polygon differences are constructed in double
+// precision (not exact); occluder points within a relative 1e-9 of the light's plane or of
+// the point's own parallel plane are clipped away before projecting.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "abrad/radiosity/shoot.h"
+
+namespace abrad::radiosity {
+
+/// Counters for the exact shading work, for statistics.
+struct VisibleStats {
+    std::size_t occluders_tested = 0;
+    std::size_t occluders_projected = 0;  ///< occluders that overlapped the light from x
+    std::size_t max_pieces = 0;           ///< most convex pieces the visible light had
+    /// When set, receives the positions in `occluders` of those that hid part of the light.
+    std::vector<std::uint32_t>* touched = nullptr;
+};
+
+/// Form factor from the differential area at `x` (unit normal `n`) to the part of the light
+/// triangle `light` (front = counter-clockwise) seen past `occluders`. A translucent occluder
+/// of opacity α lets 1 − α through. Returns 0 when `x` is not in front of the light.
+double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
+                           std::span<const Patch* const> occluders, VisibleStats* stats = nullptr);
+
+}  // namespace abrad::radiosity

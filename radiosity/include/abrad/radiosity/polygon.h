@@ -1,0 +1,98 @@
+#pragma once
+// Small convex polygons with a fixed capacity and their clipping (Sutherland–Hodgman 1974).
+//
+// Numeric assumptions: clipping uses double arithmetic with the plane test evaluated once per
+// vertex, so two clips against the same plane with opposite signs partition a polygon
+// consistently (a vertex is on exactly one side: `dist >= 0` keeps it, `dist < 0` does not).
+// Intersection points are constructed (not exact).
+
+#include <array>
+#include <cassert>
+#include <cstddef>
+#include <string>
+
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+namespace abrad::radiosity {
+
+/// A polygon of at most N vertices stored inline (no heap allocation).
+template <typename V, std::size_t N>
+class FixedPolygon {
+public:
+    static constexpr std::size_t kCapacity = N;
+
+    std::size_t size() const { return m_size; }
+    bool empty() const { return m_size == 0; }
+    void clear() { m_size = 0; }
+    void push_back(const V& v) {
+        assert(m_size < N);
+        if (m_size < N) m_vertices[m_size++] = v;
+    }
+    const V& operator[](std::size_t i) const { return m_vertices[i]; }
+    V& operator[](std::size_t i) { return m_vertices[i]; }
+    const V* begin() const { return m_vertices.data(); }
+    const V* end() const { return m_vertices.data() + m_size; }
+
+private:
+    std::array<V, N> m_vertices{};
+    std::size_t m_size = 0;
+};
+
+/// Capacity enough for a triangle clipped by up to 9 planes.
+using Polygon3 = FixedPolygon<glm::dvec3, 12>;
+using Polygon2 = FixedPolygon<glm::dvec2, 16>;
+
+/// Keeps the part of `in` where `dist(v) >= 0`; `dist` is evaluated once per vertex.
+/// The result may be empty or degenerate (zero area).
+template <typename Poly, typename Dist>
+Poly clip_polygon(const Poly& in, Dist&& dist) {
+    Poly out;
+    const std::size_t n = in.size();
+    if (n == 0) return out;
+    std::array<double, Poly::kCapacity> d{};
+    bool all_in = true, all_out = true;
+    for (std::size_t i = 0; i < n; ++i) {
+        d[i] = dist(in[i]);
+        all_in = all_in && d[i] >= 0.0;
+        all_out = all_out && d[i] < 0.0;
+    }
+    if (all_in) return in;
+    if (all_out) return out;
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t j = (i + 1) % n;
+        const bool in_i = d[i] >= 0.0, in_j = d[j] >= 0.0;
+        if (in_i) out.push_back(in[i]);
+        if (in_i != in_j) {
+            // Edge crosses the plane: construct the crossing from the inside end, so a shared
+            // edge clipped in two polygons (in either direction) gives bit-identical points
+            const std::size_t a = in_i ? i : j, b = in_i ? j : i;
+            const double t = d[a] / (d[a] - d[b]);
+            out.push_back(in[a] + (in[b] - in[a]) * t);
+        }
+    }
+    return out;
+}
+
+/// Twice the signed area of a 2D polygon (positive when counter-clockwise).
+template <typename Poly>
+double signed_area2(const Poly& p) {
+    double a = 0.0;
+    for (std::size_t i = 0, n = p.size(); i < n; ++i) {
+        const auto& u = p[i];
+        const auto& v = p[(i + 1) % n];
+        a += u.x * v.y - v.x * u.y;
+    }
+    return a;
+}
+
+/// Area vector (normal times area) of a planar 3D polygon (Newell's method).
+template <typename Poly>
+glm::dvec3 area_vector(const Poly& p) {
+    glm::dvec3 a(0.0);
+    for (std::size_t i = 0, n = p.size(); i < n; ++i) a += glm::cross(p[i], p[(i + 1) % n]);
+    return 0.5 * a;
+}
+
+}  // namespace abrad::radiosity

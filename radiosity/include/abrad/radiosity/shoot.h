@@ -1,0 +1,71 @@
+#pragma once
+// One shooting step from a point: rasterize every patch onto the hemicube with an A-buffer
+// (Carpenter 1984) or a Z-buffer, propagate delta form factors through the depth-sorted
+// fragment lists (Wang et al., "Using A-Buffer in Radiosity", Algorithm 1, PropFF), and merge
+// the kept fragment lists into occlusion lists (Algorithm 2, MergeOcclusionList).
+
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "abrad/radiosity/hemicube.h"
+
+namespace abrad::radiosity {
+
+/// A triangle seen by the hemicube: world coordinates (metres) and opacity α in [0,1].
+struct Patch {
+    glm::dvec3 p[3];
+    double opacity = 1.0;
+};
+
+/// Visibility method of the hemicube.
+enum class Visibility {
+    ZBuffer,  ///< item buffer: one sample at each pixel centre, the nearest patch takes ΔF
+    ABuffer,  ///< fragment lists with S×S coverage masks, translucency, undersampling masks
+};
+
+struct ShootOptions {
+    Visibility method = Visibility::ABuffer;
+    int subpixels = 8;        ///< A-buffer mask side S: 4, 8 or 16 (fine masks are 2S)
+    bool occlusion = true;    ///< also build occlusion lists (Algorithm 2)
+    /// Patch index the shooter belongs to (never rasterized), or kNoPatch.
+    std::uint32_t exclude = std::numeric_limits<std::uint32_t>::max();
+};
+
+inline constexpr std::uint32_t kNoPatch = std::numeric_limits<std::uint32_t>::max();
+
+/// One occlusion relation: `occluder` is in front of `receiver` along some hemicube ray.
+struct OcclusionPair {
+    std::uint32_t receiver;
+    std::uint32_t occluder;
+    friend bool operator==(const OcclusionPair&, const OcclusionPair&) = default;
+};
+
+struct ShootResult {
+    /// Form factor from the shooting point to each patch (the fraction of the point's
+    /// emitted power the patch absorbs or stops, weighted by its opacity). Same size as the
+    /// patch list.
+    std::vector<double> form_factor;
+    /// Occlusion pairs sorted by (receiver, occluder), without duplicates.
+    std::vector<OcclusionPair> occlusion;
+    std::size_t fragments = 0;            ///< fragments stored over all pixels
+    std::size_t undersampled_pixels = 0;  ///< fragments that needed the finer mask
+    std::size_t raw_pairs = 0;            ///< occlusion pairs found before deduplication
+
+    /// Occluders of `receiver` (a sub-range of `occlusion`).
+    std::span<const OcclusionPair> occluders_of(std::uint32_t receiver) const;
+};
+
+/// Shoots from `frame` (a point and its normal) to `patches` with a hemicube of the given
+/// resolution. Patches behind the shooter's plane get nothing; every patch occludes from
+/// both sides. Throws std::invalid_argument for an unsupported `subpixels`.
+ShootResult shoot(const ShooterFrame& frame, std::span<const Patch> patches,
+                  const Hemicube& hemicube, const ShootOptions& options);
+
+std::string to_string(Visibility method);
+
+}  // namespace abrad::radiosity

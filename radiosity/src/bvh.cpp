@@ -1,0 +1,72 @@
+// Median-split BVH over patch bounding boxes.
+
+#include "abrad/radiosity/bvh.h"
+
+#include <algorithm>
+#include <numeric>
+
+#include <glm/common.hpp>
+
+namespace abrad::radiosity {
+
+void Box::grow(const glm::dvec3& p) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+}
+
+void Box::grow(const Box& b) {
+    lo = glm::min(lo, b.lo);
+    hi = glm::max(hi, b.hi);
+}
+
+bool Box::overlaps(const Box& b) const {
+    return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
+           lo.z <= b.hi.z && b.lo.z <= hi.z;
+}
+
+Bvh::Bvh(std::span<const Patch> patches) {
+    m_boxes.resize(patches.size());
+    m_centres.resize(patches.size());
+    for (std::size_t i = 0; i < patches.size(); ++i) {
+        for (const auto& p : patches[i].p) m_boxes[i].grow(p);
+        m_centres[i] = 0.5 * (m_boxes[i].lo + m_boxes[i].hi);
+    }
+    m_order.resize(patches.size());
+    std::iota(m_order.begin(), m_order.end(), 0u);
+    if (!patches.empty()) {
+        m_nodes.reserve(2 * patches.size() / 4 + 2);
+        m_nodes.emplace_back();
+        build(0, 0, static_cast<std::uint32_t>(patches.size()), 0);
+    }
+}
+
+// Fills node `self` for [begin, end), appending its descendants. Indices only: m_nodes grows.
+void Bvh::build(std::uint32_t self, std::uint32_t begin, std::uint32_t end, int depth) {
+    Box box, centres;
+    for (std::uint32_t i = begin; i < end; ++i) {
+        box.grow(m_boxes[m_order[i]]);
+        centres.grow(m_centres[m_order[i]]);
+    }
+    m_nodes[self].box = box;
+    // Depth is bounded so the query stack (64) never overflows
+    if (end - begin <= 4 || depth >= 48) {
+        m_nodes[self].first = begin;
+        m_nodes[self].count = end - begin;
+        return;
+    }
+    // Split at the median of the longest axis of the centres; children are adjacent
+    const glm::dvec3 ext = centres.hi - centres.lo;
+    const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
+    const std::uint32_t mid = begin + (end - begin) / 2;
+    std::nth_element(m_order.begin() + begin, m_order.begin() + mid, m_order.begin() + end,
+                     [&](std::uint32_t a, std::uint32_t b) { return m_centres[a][axis] < m_centres[b][axis]; });
+    const auto left = static_cast<std::uint32_t>(m_nodes.size());
+    m_nodes[self].first = left;
+    m_nodes[self].count = 0;
+    m_nodes.emplace_back();
+    m_nodes.emplace_back();
+    build(left, begin, mid, depth + 1);
+    build(left + 1, mid, end, depth + 1);
+}
+
+}  // namespace abrad::radiosity

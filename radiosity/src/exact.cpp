@@ -1,0 +1,159 @@
+// Exact visible form factor of a light polygon from a point, past convex occluders.
+
+#include "abrad/radiosity/exact.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "abrad/radiosity/form_factor.h"
+#include "abrad/radiosity/polygon.h"
+
+namespace abrad::radiosity {
+
+namespace {
+
+using Poly2 = FixedPolygon<glm::dvec2, 32>;
+
+// A convex piece of the light still seen from x, with the transmittance it is seen through.
+struct Piece {
+    Poly2 poly;
+    double weight;
+    glm::dvec2 lo, hi;  // bounding box
+};
+
+void bound(Piece& p) {
+    p.lo = p.hi = p.poly[0];
+    for (const auto& v : p.poly) {
+        p.lo = glm::min(p.lo, v);
+        p.hi = glm::max(p.hi, v);
+    }
+}
+
+// Signed distance-like value of v from the directed line a->b (positive on the left).
+inline double left_of(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& v) {
+    return (b.x - a.x) * (v.y - a.y) - (b.y - a.y) * (v.x - a.x);
+}
+
+}  // namespace
+
+double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
+                           std::span<const Patch* const> occluders, VisibleStats* stats) {
+    // Light plane: unit normal _nl_ (front), signed height _sx_ of x above it
+    const glm::dvec3 l0 = light.p[0];
+    const glm::dvec3 area = glm::cross(light.p[1] - l0, light.p[2] - l0);
+    const double area_len = glm::length(area);
+    if (area_len <= 0.0) return 0.0;
+    const glm::dvec3 nl = area / area_len;
+    const double sx = glm::dot(x - l0, nl);
+    const double scale = std::sqrt(area_len);
+    if (sx <= 1e-12 * scale) return 0.0;
+
+    // Clip the light to the point's hemisphere (strictly above its tangent plane)
+    Polygon3 lit;
+    for (const auto& p : light.p) lit.push_back(p);
+    lit = clip_polygon(lit, [&](const glm::dvec3& q) { return glm::dot(q - x, n); });
+    if (lit.size() < 3) return 0.0;
+
+    // 2D frame (e1, e2) in the light plane, counter-clockwise seen from the front
+    const glm::dvec3 e1 = glm::normalize(light.p[1] - l0);
+    const glm::dvec3 e2 = glm::cross(nl, e1);
+    auto to2 = [&](const glm::dvec3& q) {
+        const glm::dvec3 d = q - l0;
+        return glm::dvec2(glm::dot(d, e1), glm::dot(d, e2));
+    };
+    auto to3 = [&](const glm::dvec2& q) { return l0 + q.x * e1 + q.y * e2; };
+
+    std::vector<Piece> pieces(1);
+    for (const auto& q : lit) pieces[0].poly.push_back(to2(q));
+    pieces[0].weight = 1.0;
+    bound(pieces[0]);
+
+    std::vector<Piece> next;
+    for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
+        const Patch* occ = occluders[oi];
+        if (stats) ++stats->occluders_tested;
+        // Keep the part of the occluder strictly between the light plane and x:
+        // r = s(p)/s(x) in (eps, 1 - eps)
+        Polygon3 part;
+        for (const auto& p : occ->p) part.push_back(p);
+        constexpr double kEps = 1e-9;
+        part = clip_polygon(part, [&](const glm::dvec3& p) {
+            return glm::dot(p - l0, nl) / sx - kEps;
+        });
+        part = clip_polygon(part, [&](const glm::dvec3& p) {
+            return (1.0 - kEps) - glm::dot(p - l0, nl) / sx;
+        });
+        if (part.size() < 3) continue;
+        // Central projection from x onto the light plane
+        Poly2 shadow;
+        for (const auto& p : part) {
+            const double sp = glm::dot(p - l0, nl);
+            shadow.push_back(to2(x + (p - x) * (sx / (sx - sp))));
+        }
+        const double a2 = signed_area2(shadow);
+        if (std::abs(a2) <= 1e-18 * scale * scale) continue;
+        if (a2 < 0.0) {  // make it counter-clockwise
+            Poly2 rev;
+            for (std::size_t i = shadow.size(); i-- > 0;) rev.push_back(shadow[i]);
+            shadow = rev;
+        }
+        glm::dvec2 slo = shadow[0], shi = shadow[0];
+        for (const auto& v : shadow) {
+            slo = glm::min(slo, v);
+            shi = glm::max(shi, v);
+        }
+        const double transmit = 1.0 - std::clamp(occ->opacity, 0.0, 1.0);
+
+        // Subtract the convex shadow from every piece it overlaps
+        next.clear();
+        bool touched = false;
+        for (Piece& piece : pieces) {
+            if (piece.hi.x <= slo.x || piece.lo.x >= shi.x || piece.hi.y <= slo.y ||
+                piece.lo.y >= shi.y) {
+                next.push_back(std::move(piece));
+                continue;
+            }
+            Poly2 rest = piece.poly;
+            for (std::size_t k = 0; k < shadow.size() && rest.size() >= 3; ++k) {
+                const glm::dvec2 a = shadow[k], b = shadow[(k + 1) % shadow.size()];
+                // The part of _rest_ outside this edge is visible past the occluder
+                Poly2 outside = clip_polygon(rest, [&](const glm::dvec2& v) { return -left_of(a, b, v); });
+                if (outside.size() >= 3 && std::abs(signed_area2(outside)) > 0.0) {
+                    Piece p{outside, piece.weight, {}, {}};
+                    bound(p);
+                    next.push_back(p);
+                }
+                rest = clip_polygon(rest, [&](const glm::dvec2& v) { return left_of(a, b, v); });
+            }
+            if (rest.size() >= 3 && std::abs(signed_area2(rest)) > 0.0) {
+                touched = true;
+                if (transmit > 0.0) {
+                    Piece p{rest, piece.weight * transmit, {}, {}};
+                    bound(p);
+                    next.push_back(p);
+                }
+            }
+        }
+        pieces.swap(next);
+        if (touched && stats) {
+            ++stats->occluders_projected;
+            if (stats->touched) stats->touched->push_back(static_cast<std::uint32_t>(oi));
+        }
+        if (pieces.empty()) break;
+    }
+    if (stats) stats->max_pieces = std::max(stats->max_pieces, pieces.size());
+
+    // Sum the form factors of the visible pieces
+    double ff = 0.0;
+    glm::dvec3 corners[32];
+    for (const Piece& piece : pieces) {
+        for (std::size_t i = 0; i < piece.poly.size(); ++i) corners[i] = to3(piece.poly[i]);
+        ff += piece.weight * point_polygon_form_factor(x, n, {corners, piece.poly.size()});
+    }
+    return ff;
+}
+
+}  // namespace abrad::radiosity

@@ -1,0 +1,484 @@
+// A-buffer hemicube shooting: Wang, Tang, Lim, Teh & Huang, "Using A-Buffer in Radiosity";
+// coverage masks after Carpenter, "The A-buffer, an antialiased hidden surface method" (1984).
+//
+// Numeric assumptions. Clipping against the face frusta uses plane tests that are exact
+// negations of each other on neighbouring faces, so a triangle straddling two faces is split
+// into pieces that partition it (intersection points are constructed in double precision).
+// Sample coverage uses a half-open rule in x and y, so two triangles sharing an edge never
+// both cover a sample.
+
+#include "abrad/radiosity/shoot.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <stdexcept>
+
+#include "abrad/radiosity/polygon.h"
+
+namespace abrad::radiosity {
+
+namespace {
+
+// ---------------------------------------------------------------------------------------
+// Coverage masks: S×S samples, row k in bits [k·S, k·S + S) of a run of 64-bit words.
+
+template <int S>
+struct Mask {
+    static constexpr int kSide = S;
+    static constexpr int kWords = (S * S + 63) / 64;
+    static constexpr int kSamples = S * S;
+    std::uint64_t w[kWords]{};
+
+    static Mask full() {
+        Mask m;
+        for (int i = 0; i < kWords; ++i)
+            w_set_all(m.w[i], i);
+        return m;
+    }
+    static void w_set_all(std::uint64_t& word, int i) {
+        const int bits = std::min(64, kSamples - i * 64);
+        word = bits == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << bits) - 1);
+    }
+    bool empty() const {
+        for (int i = 0; i < kWords; ++i)
+            if (w[i]) return false;
+        return true;
+    }
+    int count() const {
+        int c = 0;
+        for (int i = 0; i < kWords; ++i) c += std::popcount(w[i]);
+        return c;
+    }
+    // Sets samples [c0, c1) of row k.
+    void set_row(int k, int c0, int c1) {
+        if (c1 <= c0) return;
+        const int bit = k * S + c0;
+        const int n = c1 - c0;
+        const std::uint64_t run = n == 64 ? ~std::uint64_t{0} : ((std::uint64_t{1} << n) - 1);
+        w[bit / 64] |= run << (bit % 64);
+    }
+    void set(int k, int c) { set_row(k, c, c + 1); }
+    bool test(int k, int c) const {
+        const int bit = k * S + c;
+        return (w[bit / 64] >> (bit % 64)) & 1u;
+    }
+    Mask operator&(const Mask& o) const {
+        Mask r;
+        for (int i = 0; i < kWords; ++i) r.w[i] = w[i] & o.w[i];
+        return r;
+    }
+    Mask and_not(const Mask& o) const {
+        Mask r;
+        for (int i = 0; i < kWords; ++i) r.w[i] = w[i] & ~o.w[i];
+        return r;
+    }
+};
+
+// Each sample of an S mask becomes a 2×2 block of a 2S mask.
+template <int S>
+Mask<2 * S> upsample(const Mask<S>& m) {
+    Mask<2 * S> r;
+    for (int k = 0; k < S; ++k)
+        for (int c = 0; c < S; ++c)
+            if (m.test(k, c)) {
+                r.set_row(2 * k, 2 * c, 2 * c + 2);
+                r.set_row(2 * k + 1, 2 * c, 2 * c + 2);
+            }
+    return r;
+}
+
+// ---------------------------------------------------------------------------------------
+// Scan conversion helpers on a convex polygon in pixel coordinates.
+
+using Poly2 = FixedPolygon<glm::dvec2, 16>;
+
+// x-span [xl, xr) of a convex polygon on the line at height y (half-open in y at vertices).
+bool span_at(const Poly2& p, double y, double& xl, double& xr) {
+    xl = std::numeric_limits<double>::infinity();
+    xr = -xl;
+    const std::size_t n = p.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        // Edge endpoints in a canonical order (lower y first), so an edge shared by two
+        // polygons gives the same x in both
+        const glm::dvec2* a = &p[i];
+        const glm::dvec2* b = &p[(i + 1) % n];
+        if (b->y < a->y || (b->y == a->y && b->x < a->x)) std::swap(a, b);
+        if (a->y <= y && y < b->y) {
+            const double x = a->x + (y - a->y) * (b->x - a->x) / (b->y - a->y);
+            xl = std::min(xl, x);
+            xr = std::max(xr, x);
+        }
+    }
+    return xl < xr;
+}
+
+// Columns [c0, c1) of samples at positions base + (c + 0.5)/S·width... expressed in units of
+// sample spacing: samples with centre s + 0.5 in [lo, hi).
+inline void sample_range(double lo, double hi, int count, int& c0, int& c1) {
+    c0 = static_cast<int>(std::clamp(std::ceil(lo - 0.5), 0.0, static_cast<double>(count)));
+    c1 = static_cast<int>(std::clamp(std::ceil(hi - 0.5), 0.0, static_cast<double>(count)));
+}
+
+// The plane of a patch in face coordinates, for depth along a pixel's ray.
+struct DepthPlane {
+    glm::dvec3 normal;
+    double offset;
+    double fallback;  // depth used when the ray is parallel to the plane
+    double depth(double a, double b) const {
+        const double den = normal.x * a + normal.y * b + normal.z;
+        if (std::abs(den) < 1e-300) return fallback;
+        const double d = offset / den;
+        return d > 0.0 ? d : fallback;
+    }
+};
+
+template <int S>
+struct Fragment {
+    std::uint32_t pixel;
+    std::uint32_t patch;
+    float depth;
+    std::uint32_t fine;  // index into the fine masks, or kNoPatch
+    Mask<S> mask;
+};
+
+// Everything one shot accumulates before propagation.
+template <int S>
+struct FragmentBuffer {
+    std::vector<Fragment<S>> fragments;
+    std::vector<Mask<2 * S>> fine;
+};
+
+// ---------------------------------------------------------------------------------------
+// Rasterization of one clipped, projected patch piece onto one face.
+
+template <int S>
+void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
+                       std::uint32_t patch, FragmentBuffer<S>& out, std::size_t& undersampled) {
+    const int W = hc.width(face), H = hc.height(face);
+    double ymin = p[0].y, ymax = p[0].y;
+    for (const auto& v : p) {
+        ymin = std::min(ymin, v.y);
+        ymax = std::max(ymax, v.y);
+    }
+    const int j0 = std::max(0, static_cast<int>(std::floor(ymin)));
+    const int j1 = std::min(H, static_cast<int>(std::ceil(ymax)));
+    const std::size_t base = hc.face_offset(face);
+
+    double xl[2 * S], xr[2 * S];
+    bool has[2 * S];
+    for (int j = j0; j < j1; ++j) {
+        // Clip the polygon to the row strip [j, j+1] to find the touched columns
+        const double y0 = j, y1 = j + 1.0;
+        Poly2 strip = clip_polygon(p, [&](const glm::dvec2& v) { return v.y - y0; });
+        strip = clip_polygon(strip, [&](const glm::dvec2& v) { return y1 - v.y; });
+        if (strip.size() < 3 || std::abs(signed_area2(strip)) <= 1e-14) continue;
+        double xmin = strip[0].x, xmax = strip[0].x;
+        for (const auto& v : strip) {
+            xmin = std::min(xmin, v.x);
+            xmax = std::max(xmax, v.x);
+        }
+        const int i0 = std::max(0, static_cast<int>(std::floor(xmin)));
+        const int i1 = std::min(W, static_cast<int>(std::ceil(xmax)));
+
+        // Spans of the S sample rows of this strip
+        for (int k = 0; k < S; ++k) has[k] = span_at(p, y0 + (k + 0.5) / S, xl[k], xr[k]);
+        bool fine_spans = false;
+
+        for (int i = i0; i < i1; ++i) {
+            Mask<S> mask;
+            double sx = 0.0, sy = 0.0;
+            for (int k = 0; k < S; ++k) {
+                if (!has[k]) continue;
+                int c0, c1;
+                sample_range((xl[k] - i) * S, (xr[k] - i) * S, S, c0, c1);
+                if (c1 > c0) {
+                    mask.set_row(k, c0, c1);
+                    const double n = c1 - c0;
+                    sx += n * (i + (c0 + c1) * 0.5 / S);
+                    sy += n * (y0 + (k + 0.5) / S);
+                }
+            }
+            std::uint32_t fine_index = kNoPatch;
+            if (mask.empty()) {
+                // Clip to the pixel: touching with positive area but no sample = undersampled
+                Poly2 px = clip_polygon(strip, [&](const glm::dvec2& v) { return v.x - i; });
+                px = clip_polygon(px, [&](const glm::dvec2& v) { return (i + 1.0) - v.x; });
+                if (px.size() < 3 || std::abs(signed_area2(px)) <= 1e-14) continue;
+                if (!fine_spans) {
+                    for (int k = 0; k < 2 * S; ++k)
+                        has[k] = span_at(p, y0 + (k + 0.5) / (2 * S), xl[k], xr[k]);
+                    fine_spans = true;
+                }
+                Mask<2 * S> fm;
+                for (int k = 0; k < 2 * S; ++k) {
+                    if (!has[k]) continue;
+                    int c0, c1;
+                    sample_range((xl[k] - i) * 2 * S, (xr[k] - i) * 2 * S, 2 * S, c0, c1);
+                    fm.set_row(k, c0, c1);
+                }
+                // Centroid of the piece inside the pixel: depth, and the sample of last resort
+                glm::dvec2 c(0.0);
+                for (const auto& v : px) c += v;
+                c /= static_cast<double>(px.size());
+                if (fm.empty()) {
+                    const int kc = std::clamp(static_cast<int>((c.y - y0) * 2 * S), 0, 2 * S - 1);
+                    const int cc = std::clamp(static_cast<int>((c.x - i) * 2 * S), 0, 2 * S - 1);
+                    fm.set(kc, cc);
+                }
+                fine_index = static_cast<std::uint32_t>(out.fine.size());
+                out.fine.push_back(fm);
+                ++undersampled;
+                sx = c.x;
+                sy = c.y;
+            } else {
+                const double n = mask.count();
+                sx /= n;
+                sy /= n;
+            }
+            if (fine_spans) {  // restore coarse spans for the next column
+                for (int k = 0; k < S; ++k) has[k] = span_at(p, y0 + (k + 0.5) / S, xl[k], xr[k]);
+                fine_spans = false;
+            }
+            const double depth = plane.depth(hc.proj_a(sx), hc.proj_b(face, sy));
+            out.fragments.push_back({static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)),
+                                     patch, static_cast<float>(depth), fine_index, mask});
+        }
+    }
+}
+
+// Z-buffer: one sample at each pixel centre.
+void rasterize_points(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
+                      std::uint32_t patch, FragmentBuffer<1>& out) {
+    const int W = hc.width(face), H = hc.height(face);
+    double ymin = p[0].y, ymax = p[0].y;
+    for (const auto& v : p) {
+        ymin = std::min(ymin, v.y);
+        ymax = std::max(ymax, v.y);
+    }
+    const std::size_t base = hc.face_offset(face);
+    int j0, j1;
+    sample_range(ymin, ymax, H, j0, j1);
+    for (int j = j0; j < j1; ++j) {
+        double xl, xr;
+        if (!span_at(p, j + 0.5, xl, xr)) continue;
+        int i0, i1;
+        sample_range(xl, xr, W, i0, i1);
+        for (int i = i0; i < i1; ++i) {
+            Mask<1> m;
+            m.set(0, 0);
+            const double depth = plane.depth(hc.proj_a(i + 0.5), hc.proj_b(face, j + 0.5));
+            out.fragments.push_back({static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)),
+                                     patch, static_cast<float>(depth), kNoPatch, m});
+        }
+    }
+}
+
+// Clips a patch (local coordinates) to each face frustum and hands the projected pieces on.
+template <typename Emit>
+void project_patch(const Hemicube& hc, const glm::dvec3 local[3], Emit&& emit) {
+    // Entirely behind the shooter's plane: seen by no face
+    if (local[0].z <= 0.0 && local[1].z <= 0.0 && local[2].z <= 0.0) return;
+    // Points closer than this to the shooting point are dropped (near plane), metres
+    constexpr double kNear = 1e-9;
+    for (int f = 0; f < kFaceCount; ++f) {
+        Polygon3 poly;
+        for (int k = 0; k < 3; ++k) poly.push_back(to_face(f, local[k]));
+        // Clip to the face frustum: d >= near, |sx| <= d, and sy in [-d, d] or [0, d]
+        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z - kNear; });
+        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z - q.x; });
+        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z + q.x; });
+        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z - q.y; });
+        if (f == kTop)
+            poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z + q.y; });
+        else
+            poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.y; });
+        if (poly.size() < 3) continue;
+        // Project to pixel coordinates
+        Poly2 p2;
+        double dmin = poly[0].z;
+        for (const auto& q : poly) {
+            p2.push_back({std::clamp(hc.pixel_x(q.x / q.z), 0.0, double(hc.width(f))),
+                          std::clamp(hc.pixel_y(f, q.y / q.z), 0.0, double(hc.height(f)))});
+            dmin = std::min(dmin, q.z);
+        }
+        if (std::abs(signed_area2(p2)) <= 1e-14) continue;
+        // Plane of the patch in face coordinates
+        const glm::dvec3 q0 = to_face(f, local[0]);
+        const glm::dvec3 nrm =
+            glm::cross(to_face(f, local[1]) - q0, to_face(f, local[2]) - q0);
+        const DepthPlane plane{nrm, glm::dot(nrm, q0), dmin};
+        emit(f, p2, plane);
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Propagation (Algorithm 1) and occlusion (Algorithm 2) over one pixel's sorted list.
+
+template <typename M>
+struct Bundle {
+    M mask;
+    double transmittance;
+};
+
+// PropFF, iteratively: the bundles partition the samples still carrying light; each keeps the
+// transmittance left after the translucent patches it went through.
+template <typename M>
+void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
+               std::span<const Patch> all, double delta, bool translucency,
+               std::vector<double>& ff, std::vector<Bundle<M>>& bundles) {
+    bundles.clear();
+    bundles.push_back({M::full(), 1.0});
+    const double per_sample = delta / M::kSamples;
+    for (std::size_t f = 0; f < masks.size() && !bundles.empty(); ++f) {
+        const double alpha = translucency ? all[patches[f]].opacity : 1.0;
+        const std::size_t n = bundles.size();
+        for (std::size_t b = 0; b < n; ++b) {
+            const M in = bundles[b].mask & masks[f];
+            if (in.empty()) continue;
+            const double t = bundles[b].transmittance;
+            // Retained by this patch: opacity · ΔF_inside (Eqn 5)
+            ff[patches[f]] += alpha * t * per_sample * in.count();
+            bundles[b].mask = bundles[b].mask.and_not(masks[f]);
+            if (alpha < 1.0) bundles.push_back({in, t * (1.0 - alpha)});  // Eqn 6
+        }
+        std::erase_if(bundles, [](const Bundle<M>& b) { return b.mask.empty(); });
+    }
+}
+
+// MergeOcclusionList: the nearer patch of an overlapping pair occludes the farther one; the
+// ray bundle is cut by opaque fragments.
+template <typename M>
+void merge_occlusion(std::span<const M> masks, std::span<const std::uint32_t> patches,
+                     std::span<const Patch> all, std::vector<std::uint64_t>& pairs) {
+    for (std::size_t a = 0; a < masks.size(); ++a) {
+        M test = masks[a];
+        for (std::size_t b = a + 1; b < masks.size(); ++b) {
+            if ((test & masks[b]).empty()) continue;
+            if (patches[b] != patches[a]) {
+                const std::uint64_t key = (std::uint64_t{patches[b]} << 32) | patches[a];
+                if (pairs.empty() || pairs.back() != key) pairs.push_back(key);
+            }
+            if (all[patches[b]].opacity >= 1.0) {
+                test = test.and_not(masks[b]);
+                if (test.empty()) break;
+            }
+        }
+    }
+}
+
+template <int S>
+ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches,
+                       const Hemicube& hc, const ShootOptions& options) {
+    const bool abuffer = options.method == Visibility::ABuffer;
+    ShootResult result;
+    result.form_factor.assign(patches.size(), 0.0);
+
+    // Scan-convert every patch into fragments
+    FragmentBuffer<S> buffer;
+    for (std::size_t i = 0; i < patches.size(); ++i) {
+        if (i == options.exclude) continue;
+        const glm::dvec3 local[3] = {frame.to_local(patches[i].p[0]),
+                                     frame.to_local(patches[i].p[1]),
+                                     frame.to_local(patches[i].p[2])};
+        const auto id = static_cast<std::uint32_t>(i);
+        project_patch(hc, local, [&](int face, const Poly2& p, const DepthPlane& plane) {
+            if constexpr (S == 1)
+                rasterize_points(hc, face, p, plane, id, buffer);
+            else
+                rasterize_abuffer<S>(hc, face, p, plane, id, buffer, result.undersampled_pixels);
+        });
+    }
+    result.fragments = buffer.fragments.size();
+
+    // Bucket fragments by pixel (counting sort), then sort each list by depth
+    const std::size_t npix = hc.pixel_count();
+    std::vector<std::uint32_t> start(npix + 1, 0);
+    for (const auto& f : buffer.fragments) ++start[f.pixel + 1];
+    for (std::size_t i = 0; i < npix; ++i) start[i + 1] += start[i];
+    std::vector<std::uint32_t> order(buffer.fragments.size());
+    {
+        std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+        for (std::size_t i = 0; i < buffer.fragments.size(); ++i)
+            order[fill[buffer.fragments[i].pixel]++] = static_cast<std::uint32_t>(i);
+    }
+
+    std::vector<std::uint64_t> pairs;
+    std::vector<Mask<S>> masks;
+    std::vector<Mask<2 * S>> fine_masks;
+    std::vector<std::uint32_t> ids;
+    std::vector<Bundle<Mask<S>>> bundles;
+    std::vector<Bundle<Mask<2 * S>>> fine_bundles;
+    for (std::size_t px = 0; px < npix; ++px) {
+        auto first = order.begin() + start[px], last = order.begin() + start[px + 1];
+        if (first == last) continue;
+        std::sort(first, last, [&](std::uint32_t a, std::uint32_t b) {
+            const auto &fa = buffer.fragments[a], &fb = buffer.fragments[b];
+            return fa.depth < fb.depth || (fa.depth == fb.depth && fa.patch < fb.patch);
+        });
+        masks.clear();
+        ids.clear();
+        bool fine = false;
+        for (auto it = first; it != last; ++it) {
+            const auto& f = buffer.fragments[*it];
+            masks.push_back(f.mask);
+            ids.push_back(f.patch);
+            fine = fine || f.fine != kNoPatch;
+        }
+        const double delta = hc.delta(px);
+        if (!fine) {
+            propagate<Mask<S>>(masks, ids, patches, delta, abuffer, result.form_factor, bundles);
+            if (options.occlusion) merge_occlusion<Mask<S>>(masks, ids, patches, pairs);
+        } else {
+            // Undersampled pixel: the whole list at the finer mask resolution
+            fine_masks.clear();
+            for (auto it = first; it != last; ++it) {
+                const auto& f = buffer.fragments[*it];
+                fine_masks.push_back(f.fine != kNoPatch ? buffer.fine[f.fine] : upsample(f.mask));
+            }
+            propagate<Mask<2 * S>>(fine_masks, ids, patches, delta, abuffer, result.form_factor,
+                                   fine_bundles);
+            if (options.occlusion)
+                merge_occlusion<Mask<2 * S>>(fine_masks, ids, patches, pairs);
+        }
+    }
+
+    // Deduplicate occlusion pairs
+    result.raw_pairs = pairs.size();
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    result.occlusion.reserve(pairs.size());
+    for (std::uint64_t key : pairs)
+        result.occlusion.push_back({static_cast<std::uint32_t>(key >> 32),
+                                    static_cast<std::uint32_t>(key & 0xffffffffu)});
+    return result;
+}
+
+}  // namespace
+
+std::span<const OcclusionPair> ShootResult::occluders_of(std::uint32_t receiver) const {
+    auto lo = std::lower_bound(occlusion.begin(), occlusion.end(), receiver,
+                               [](const OcclusionPair& p, std::uint32_t r) { return p.receiver < r; });
+    auto hi = std::upper_bound(lo, occlusion.end(), receiver,
+                               [](std::uint32_t r, const OcclusionPair& p) { return r < p.receiver; });
+    return {lo, hi};
+}
+
+ShootResult shoot(const ShooterFrame& frame, std::span<const Patch> patches,
+                  const Hemicube& hemicube, const ShootOptions& options) {
+    if (options.method == Visibility::ZBuffer) return shoot_with<1>(frame, patches, hemicube, options);
+    switch (options.subpixels) {
+        case 4: return shoot_with<4>(frame, patches, hemicube, options);
+        case 8: return shoot_with<8>(frame, patches, hemicube, options);
+        case 16: return shoot_with<16>(frame, patches, hemicube, options);
+        default:
+            throw std::invalid_argument("A-buffer subpixels must be 4, 8 or 16, got " +
+                                        std::to_string(options.subpixels));
+    }
+}
+
+std::string to_string(Visibility method) {
+    return method == Visibility::ZBuffer ? "zbuffer" : "abuffer";
+}
+
+}  // namespace abrad::radiosity

@@ -1,0 +1,153 @@
+#include "abrad/radiosity/bake.h"
+
+#include <array>
+
+#include <gtest/gtest.h>
+
+#include <numbers>
+
+#include <glm/geometric.hpp>
+
+#include "abrad/radiosity/form_factor.h"
+#include "analytic.h"
+
+namespace abrad::radiosity {
+namespace {
+
+// A quad surface [x0,x1]×[y0,y1] at height z split into n×n cells, facing up or down.
+visdb::Surface grid(const std::string& name, std::uint32_t material, double x0, double x1,
+                    double y0, double y1, double z, int n, bool up) {
+    visdb::Surface s;
+    s.name = name;
+    s.material = material;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i)
+            s.mesh.positions.push_back({x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * j / n, z});
+    auto id = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const auto a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
+            if (up) {
+                s.mesh.triangles.push_back({a, b, c});
+                s.mesh.triangles.push_back({a, c, d});
+            } else {
+                s.mesh.triangles.push_back({a, c, b});
+                s.mesh.triangles.push_back({a, d, c});
+            }
+        }
+    return s;
+}
+
+// Floor 2×2 m (8×8 cells) under a 1×1 m light at 1.5 m, E = (10, 20, 5) W/m², ρ_floor = 0.5.
+visdb::Scene paper_scene(bool occluder) {
+    visdb::Scene scene;
+    scene.materials.push_back({"floor", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
+    scene.materials.push_back({"light", {0, 0, 0}, {10, 20, 5}, 1.0});
+    scene.materials.push_back({"occluder", {0.3, 0.3, 0.3}, {0, 0, 0}, 1.0});
+    scene.surfaces.push_back(grid("floor", 0, -1, 1, -1, 1, 0, 8, true));
+    scene.surfaces.push_back(grid("light", 1, -0.5, 0.5, -0.5, 0.5, 1.5, 1, false));
+    if (occluder) scene.surfaces.push_back(grid("occluder", 2, -0.2, 0.2, -0.2, 0.2, 0.75, 1, true));
+    return scene;
+}
+
+// Form factor from floor point x to the light ∩ rectangle, both at height 1.5.
+double ff_light_part(const glm::dvec3& x, double sx0, double sx1, double sy0, double sy1) {
+    const double x0 = std::max(-0.5, sx0), x1 = std::min(0.5, sx1);
+    const double y0 = std::max(-0.5, sy0), y1 = std::min(0.5, sy1);
+    if (x0 >= x1 || y0 >= y1) return 0.0;
+    return testing::ff_parallel_rect(x0 - x.x, x1 - x.x, y0 - x.y, y1 - x.y, 1.5);
+}
+
+TEST(Bake, ExactShadingMatchesClosedFormOnTheFloor) {
+    for (bool occluder : {false, true}) {
+        const visdb::Bake b = bake(paper_scene(occluder), BakeOptions{});
+        int floor_vertices = 0;
+        for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+            if (b.mesh.triangle_surface[t] != 0) continue;
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t v = b.mesh.triangles[t][k];
+                const glm::dvec3 x = b.mesh.positions[v];
+                double f = ff_light_part(x, -9, 9, -9, 9);
+                // The occluder at half height projects s ↦ 2s - x onto the light's plane
+                if (occluder) f -= ff_light_part(x, -0.4 - x.x, 0.4 - x.x, -0.4 - x.y, 0.4 - x.y);
+                EXPECT_NEAR(b.mesh.irradiance[v].y, 20.0 * f, 1e-5 * 20.0 * f + 1e-9)
+                    << "occluder " << occluder << " at " << x.x << "," << x.y;
+                EXPECT_NEAR(b.mesh.radiosity[v].x, 0.5 * 10.0 * f, 1e-5 * 5.0 * f + 1e-9);
+                ++floor_vertices;
+            }
+        }
+        EXPECT_EQ(floor_vertices, 8 * 8 * 2 * 3);
+    }
+}
+
+// The paper's way: vertex = area-weighted patch irradiance from the hemicube. Close to the
+// exact field away from shadow edges, and conserving the power that reaches the floor.
+TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
+    BakeOptions o;
+    o.shading = Shading::Patch;
+    const visdb::Scene scene = paper_scene(false);
+    const visdb::Bake b = bake(scene, o);
+    double received = 0.0;
+    for (const auto& [k, v] : b.statistics)
+        if (k == "received_power_w") received = v;
+    // Power leaving the light that lands on the 2×2 floor: E · A_L · F(light→floor); with a
+    // differential-area hemicube at each light triangle's centroid it is E·A·F(centroid→floor)
+    const double mean_e = (10 + 20 + 5) / 3.0;
+    const double ff_centroid_floor = (testing::ff_parallel_rect(-1 + 1.0 / 6, 1 + 1.0 / 6, -1 + 1.0 / 6, 1 + 1.0 / 6, 1.5) +
+                                      testing::ff_parallel_rect(-1 - 1.0 / 6, 1 - 1.0 / 6, -1 - 1.0 / 6, 1 - 1.0 / 6, 1.5)) / 2;
+    EXPECT_NEAR(received, mean_e * 1.0 * ff_centroid_floor, 0.01 * received);
+    // The centre vertex: the hemicube treats each light triangle as a point at its centroid
+    // (±1/6, ∓1/6, 1.5) carrying half the light's area, so each floor triangle j gets
+    // H_j = Σ_L E·A_L·F(c_L → j)/A_j; the vertex averages its 6 incident triangles (equal
+    // areas). Near a large light this overestimates the exact value (ALGORITHMS.md §7).
+    const double q = 0.25;
+    using P = glm::dvec3;
+    const P z(0, 0, 0);
+    const std::vector<std::array<P, 3>> incident = {
+        {P(-q, -q, 0), P(0, -q, 0), z}, {P(-q, -q, 0), z, P(-q, 0, 0)},  // cell [-q,0]²
+        {z, P(q, 0, 0), P(q, q, 0)},    {z, P(q, q, 0), P(0, q, 0)},     // cell [0,q]²
+        {P(-q, 0, 0), z, P(0, q, 0)},   {P(0, -q, 0), P(q, 0, 0), z}};
+    double expected = 0.0;
+    for (const auto& tri : incident)
+        for (const glm::dvec3 c : {glm::dvec3(1.0 / 6, -1.0 / 6, 1.5), glm::dvec3(-1.0 / 6, 1.0 / 6, 1.5)})
+            expected += 10.0 * 0.5 * point_polygon_form_factor(c, {0, 0, -1}, tri) / (q * q / 2) / 6;
+    const visdb::Bake e = bake(scene, BakeOptions{});
+    int checked = 0;
+    for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+        if (glm::length(b.mesh.positions[v]) < 1e-12) {
+            EXPECT_NEAR(b.mesh.irradiance[v].x, expected, 0.01 * expected);
+            EXPECT_GT(b.mesh.irradiance[v].x, 1.03 * e.mesh.irradiance[v].x);
+            ++checked;
+        }
+    }
+    EXPECT_EQ(checked, 1);
+}
+
+TEST(Bake, RejectsSceneWithoutLightsAndBadOptions) {
+    visdb::Scene scene = paper_scene(false);
+    scene.materials[1].emittance = {0, 0, 0};
+    EXPECT_THROW(bake(scene, BakeOptions{}), BakeError);
+    BakeOptions o;
+    o.resolution = 51;
+    EXPECT_THROW(bake(paper_scene(false), o), BakeError);
+    o = {};
+    o.subpixels = 5;
+    EXPECT_THROW(bake(paper_scene(false), o), BakeError);
+}
+
+// Vertices are split where faces of one surface differ in normal, never shared across surfaces.
+TEST(Bake, VerticesNotSharedAcrossSurfacesOrNormals) {
+    const visdb::Bake b = bake(paper_scene(true), BakeOptions{});
+    std::vector<int> surface_of(b.mesh.positions.size(), -1);
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
+        for (int k = 0; k < 3; ++k) {
+            const auto v = b.mesh.triangles[t][k];
+            const int s = static_cast<int>(b.mesh.triangle_surface[t]);
+            EXPECT_TRUE(surface_of[v] == -1 || surface_of[v] == s);
+            surface_of[v] = s;
+        }
+    EXPECT_EQ(b.mesh.positions.size(), 81u + 4u + 4u);
+}
+
+}  // namespace
+}  // namespace abrad::radiosity

@@ -1,0 +1,405 @@
+// abrad: the command line. Subcommands import, bake, export, info, run.
+//
+// Exit status: 0 success; 1 failure (I/O, internal); 2 bad input or usage (a malformed model,
+// an unknown option, a scene that cannot be baked). Errors go to stderr as
+// "abrad <cmd>: <file>:<line>: <message>".
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <glm/geometric.hpp>
+
+#include "abrad/convert/obj_import.h"
+#include "abrad/export/writers.h"
+#include "abrad/radiosity/bake.h"
+#include "abrad/visdb/store.h"
+
+namespace fs = std::filesystem;
+
+namespace abrad::tools {
+namespace {
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitBadInput = 2;
+
+// An error already phrased for the user, with the exit status it calls for.
+struct CommandError {
+    int status;
+    std::string message;
+};
+
+[[noreturn]] void bad_input(const std::string& message) { throw CommandError{kExitBadInput, message}; }
+
+// ---------------------------------------------------------------------------------------
+// Options shared by several subcommands
+
+struct ImportArgs {
+    std::vector<std::string> models;
+    std::string unit = "m";
+    std::string up = "z";
+};
+
+struct BakeArgs {
+    std::string name;
+    std::string method = "abuffer";
+    int resolution = 50;
+    int subpixels = 8;
+    int bounces = 0;
+    std::string shading = "exact";
+    int threads = 0;
+};
+
+void add_import_options(CLI::App& app, ImportArgs& a) {
+    app.add_option("--unit", a.unit, "Length unit of the model files")
+        ->check(CLI::IsMember({"mm", "cm", "m", "in", "ft"}))
+        ->capture_default_str();
+    app.add_option("--up", a.up, "Up axis of the model files (y: rotated to Z up)")
+        ->check(CLI::IsMember({"y", "z"}))
+        ->capture_default_str();
+}
+
+void add_bake_options(CLI::App& app, BakeArgs& a) {
+    app.add_option("--name", a.name, "Name of the stored bake (default bake-<n>; an existing bake "
+                                     "of that name is replaced)");
+    app.add_option("--method", a.method, "Hemicube visibility: abuffer (fragment lists, coverage "
+                                         "masks, translucency) or zbuffer (point-sampled item buffer)")
+        ->check(CLI::IsMember({"abuffer", "zbuffer"}))
+        ->capture_default_str();
+    app.add_option("--resolution", a.resolution, "Hemicube resolution R (even, 2..4096)")
+        ->capture_default_str();
+    app.add_option("--subpixels", a.subpixels, "A-buffer mask side: 4, 8 or 16 (8 = 8x8 = one uint64)")
+        ->capture_default_str();
+    app.add_option("--bounces", a.bounces, "Interreflection bounces (0 = direct light, the paper's "
+                                           "setting; only 0 is implemented so far)")
+        ->capture_default_str();
+    app.add_option("--shading", a.shading, "Vertex shades: exact (exact direct irradiance past the "
+                                           "occluders) or patch (area-weighted hemicube patches)")
+        ->check(CLI::IsMember({"exact", "patch"}))
+        ->capture_default_str();
+    app.add_option("--threads", a.threads, "Worker threads (0 = all cores)")->capture_default_str();
+}
+
+radiosity::BakeOptions to_options(const BakeArgs& a) {
+    radiosity::BakeOptions o;
+    o.name = a.name;
+    o.method = a.method == "zbuffer" ? radiosity::Visibility::ZBuffer : radiosity::Visibility::ABuffer;
+    o.resolution = a.resolution;
+    o.subpixels = a.subpixels;
+    o.bounces = a.bounces;
+    o.shading = a.shading == "patch" ? radiosity::Shading::Patch : radiosity::Shading::Exact;
+    o.threads = a.threads;
+    try {
+        radiosity::validate(o);
+    } catch (const radiosity::BakeError& e) {
+        bad_input(e.what());
+    }
+    return o;
+}
+
+// ---------------------------------------------------------------------------------------
+// Progress on stderr: a rewritten line on a terminal, a line per 10% otherwise.
+
+class Progress {
+public:
+    Progress() : m_tty(isatty(STDERR_FILENO) != 0), m_start(std::chrono::steady_clock::now()) {}
+
+    void operator()(std::string_view stage, std::size_t done, std::size_t total) {
+        const int percent = total ? static_cast<int>(100 * done / total) : 100;
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+        if (m_tty) {
+            std::fprintf(stderr, "\r%.*s: %zu/%zu light triangles (%d%%) %.1f s", int(stage.size()),
+                         stage.data(), done, total, percent, s);
+            if (done == total) std::fprintf(stderr, "\n");
+        } else if (percent / 10 != m_last_decile || done == total) {
+            m_last_decile = percent / 10;
+            std::fprintf(stderr, "%.*s: %zu/%zu light triangles (%d%%) %.1f s\n", int(stage.size()),
+                         stage.data(), done, total, percent, s);
+        }
+    }
+
+private:
+    bool m_tty;
+    int m_last_decile = -1;
+    std::chrono::steady_clock::time_point m_start;
+};
+
+// ---------------------------------------------------------------------------------------
+// The steps
+
+visdb::Scene read_models(const ImportArgs& a) {
+    visdb::Scene all;
+    convert::ImportOptions options;
+    options.unit = a.unit;
+    options.up = a.up.front();
+    for (const std::string& model : a.models) {
+        std::string ext = fs::path(model).extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        if (ext != ".obj")
+            bad_input(model + ": unsupported format '" + ext + "' (this build imports OBJ/MTL)");
+        convert::ImportResult r;
+        try {
+            r = convert::import_obj(model, options);
+        } catch (const convert::ImportError& e) {
+            bad_input(e.what());
+        }
+        std::cout << "imported " << model << "\n" << r.report.to_string();
+        // Append, remapping material and source indices
+        const auto material_base = static_cast<std::uint32_t>(all.materials.size());
+        const auto source_base = static_cast<std::uint32_t>(all.sources.size());
+        for (auto& m : r.scene.materials) all.materials.push_back(std::move(m));
+        for (auto& s : r.scene.sources) all.sources.push_back(std::move(s));
+        for (auto& c : r.scene.cameras) all.cameras.push_back(std::move(c));
+        for (auto& s : r.scene.surfaces) {
+            s.material += material_base;
+            s.source += source_base;
+            all.surfaces.push_back(std::move(s));
+        }
+    }
+    return all;
+}
+
+void import_into(const visdb::Scene& scene, const std::string& db) {
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::CreateOrOpen);
+    store.add_import(scene);
+    std::cout << "stored " << scene.surfaces.size() << " surfaces, " << scene.triangle_count()
+              << " triangles in " << db << "\n";
+}
+
+std::string stat_text(const std::vector<std::pair<std::string, double>>& stats, const std::string& key) {
+    for (const auto& [k, v] : stats)
+        if (k == key) {
+            std::ostringstream s;
+            s << v;
+            return s.str();
+        }
+    return "-";
+}
+
+// Irradiance range over the vertices of receivers (surfaces that do not emit).
+void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
+    double lo = 1e300, hi = 0.0, sum = 0.0;
+    std::size_t n = 0;
+    std::vector<bool> seen(b.mesh.positions.size(), false);
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        const auto& s = scene.surfaces[b.mesh.triangle_surface[t]];
+        if (scene.materials[s.material].is_emitter()) continue;
+        for (int k = 0; k < 3; ++k) {
+            const auto v = b.mesh.triangles[t][k];
+            if (seen[v]) continue;
+            seen[v] = true;
+            const glm::vec3 h = b.mesh.irradiance[v];
+            const double y = 0.2126 * h.x + 0.7152 * h.y + 0.0722 * h.z;
+            lo = std::min(lo, y);
+            hi = std::max(hi, y);
+            sum += y;
+            ++n;
+        }
+    }
+    std::cout << "bake '" << b.name << "': " << stat_text(b.statistics, "triangles") << " triangles, "
+              << stat_text(b.statistics, "vertices") << " vertices, "
+              << stat_text(b.statistics, "light_triangles") << " light triangles, "
+              << stat_text(b.statistics, "seconds_total") << " s\n";
+    if (n)
+        std::cout << "  receiver irradiance (luminance) min " << lo << " / mean " << sum / double(n)
+                  << " / max " << hi << " " << b.unit << "\n";
+    std::cout << "  emitted " << stat_text(b.statistics, "emitted_power_w") << " W, reaching receivers "
+              << stat_text(b.statistics, "received_power_w") << " W (mean over RGB)\n";
+}
+
+visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in) {
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    const visdb::Scene scene = store.load_scene();
+    radiosity::BakeOptions options = options_in;
+    if (options.name.empty()) options.name = "bake-" + std::to_string(store.list_bakes().size() + 1);
+    Progress progress;
+    visdb::Bake b;
+    try {
+        b = radiosity::bake(scene, options, std::ref(progress));
+    } catch (const radiosity::BakeError& e) {
+        bad_input(db + ": " + e.what());
+    }
+    store.add_bake(b);
+    print_bake_summary(b, scene);
+    return b;
+}
+
+void export_bake(const std::string& db, const std::string& bake_name, const std::string& format,
+                 const std::string& output, bool ascii) {
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    if (store.list_bakes().empty()) bad_input(db + ": no bake to export (run abrad bake first)");
+    visdb::Bake b;
+    try {
+        b = store.load_bake(bake_name);
+    } catch (const visdb::StoreError& e) {
+        bad_input(e.what());
+    }
+    const exporter::ToneMap tone = exporter::auto_tone_map(b.mesh);
+    if (format == "ply") {
+        exporter::write_ply(output, b.mesh, tone, {.ascii = ascii, .comment = "abrad bake " + b.name});
+    } else {
+        exporter::write_obj(output, store.load_scene(), b.mesh, tone);
+    }
+    std::cout << "wrote " << output << " (" << format << ", bake '" << b.name << "', "
+              << b.mesh.positions.size() << " vertices, " << b.mesh.triangles.size()
+              << " triangles, exposure " << tone.exposure << " per " << b.unit << ")\n";
+}
+
+void print_info(const std::string& db) {
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    const visdb::Scene scene = store.load_scene();
+    std::cout << db << ": abrad visual database, schema " << store.schema_version() << "\n";
+    std::cout << "sources (" << scene.sources.size() << "):\n";
+    for (const auto& s : scene.sources)
+        std::cout << "  " << s.path << "  [" << s.format << ", " << s.size_bytes << " bytes, fnv1a "
+                  << s.checksum << ", unit " << s.unit << ", up " << s.up_axis << ", imported "
+                  << s.imported_at << "]\n";
+    std::size_t light_tris = 0;
+    double light_area = 0.0, light_power = 0.0;
+    std::cout << "surfaces (" << scene.surfaces.size() << "), triangles " << scene.triangle_count() << ":\n";
+    for (const auto& s : scene.surfaces) {
+        const auto& m = scene.materials[s.material];
+        std::cout << "  " << s.name << (s.layer.empty() ? "" : " (layer " + s.layer + ")") << ": "
+                  << s.mesh.triangles.size() << " triangles, material " << m.name << " rho (" << m.reflectance.x
+                  << " " << m.reflectance.y << " " << m.reflectance.z << ") alpha " << m.opacity;
+        if (m.is_emitter()) {
+            double area = 0.0;
+            for (const auto& t : s.mesh.triangles)
+                area += 0.5 * glm::length(glm::cross(s.mesh.positions[t.y] - s.mesh.positions[t.x],
+                                                     s.mesh.positions[t.z] - s.mesh.positions[t.x]));
+            light_tris += s.mesh.triangles.size();
+            light_area += area;
+            light_power += area * (m.emittance.x + m.emittance.y + m.emittance.z) / 3.0;
+            std::cout << ", emits E (" << m.emittance.x << " " << m.emittance.y << " " << m.emittance.z
+                      << ") W/m2 over " << area << " m2";
+        }
+        std::cout << "\n";
+    }
+    std::cout << "lights: " << light_tris << " triangles, " << light_area << " m2, " << light_power
+              << " W (mean over RGB)\n";
+    std::cout << "cameras (" << scene.cameras.size() << ")";
+    for (const auto& c : scene.cameras) std::cout << " " << c.name;
+    std::cout << "\n";
+    const auto bakes = store.list_bakes();
+    std::cout << "bakes (" << bakes.size() << "):\n";
+    for (const auto& b : bakes) {
+        std::cout << "  " << b.name << "  [" << b.created_at << ", " << b.vertex_count << " vertices, "
+                  << b.triangle_count << " triangles, unit " << b.unit << "]\n    parameters:";
+        for (const auto& [k, v] : b.parameters) std::cout << " " << k << "=" << v;
+        std::cout << "\n    statistics:";
+        for (const auto& [k, v] : b.statistics) std::cout << " " << k << "=" << v;
+        std::cout << "\n";
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+
+int run_cli(int argc, char** argv) {
+    CLI::App app{"abrad: lighting bakes for buildings with an A-buffer hemicube radiosity"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", "abrad 0.1.0");
+    app.footer("Exit status: 0 ok, 1 failure, 2 bad input or usage.");
+
+    ImportArgs import_args;
+    std::string db;
+    auto* import_cmd = app.add_subcommand("import", "Import model files into a visual database");
+    import_cmd->add_option("MODEL", import_args.models, "OBJ/MTL model files")->required();
+    import_cmd->add_option("--db", db, "Visual database (.visdb), created when missing")->required();
+    add_import_options(*import_cmd, import_args);
+
+    BakeArgs bake_args;
+    auto* bake_cmd = app.add_subcommand("bake", "Bake direct light into the database's scene");
+    bake_cmd->add_option("--db", db, "Visual database")->required();
+    add_bake_options(*bake_cmd, bake_args);
+
+    std::string format, output, bake_name;
+    bool ascii = false;
+    auto* export_cmd = app.add_subcommand("export", "Export a bake as shaded PLY or OBJ");
+    export_cmd->add_option("--db", db, "Visual database")->required();
+    export_cmd->add_option("--format", format, "ply or obj")->required()->check(CLI::IsMember({"ply", "obj"}));
+    export_cmd->add_option("--output", output, "Output path")->required();
+    export_cmd->add_option("--bake", bake_name, "Bake name (default: the latest)");
+    export_cmd->add_flag("--ascii", ascii, "PLY as ASCII instead of binary little endian");
+
+    auto* info_cmd = app.add_subcommand("info", "List what a visual database holds");
+    info_cmd->add_option("--db", db, "Visual database")->required();
+
+    std::string out_dir;
+    auto* run_cmd = app.add_subcommand("run", "Import, bake and export in one go");
+    run_cmd->add_option("MODEL", import_args.models, "OBJ/MTL model files")->required();
+    run_cmd->add_option("--out", out_dir, "Output directory (STEM.visdb, STEM.ply, STEM.obj)")->required();
+    add_import_options(*run_cmd, import_args);
+    add_bake_options(*run_cmd, bake_args);
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        if (e.get_exit_code() == 0) return app.exit(e);
+        const auto* sub = app.get_subcommands().empty() ? nullptr : app.get_subcommands().front();
+        std::cerr << "abrad" << (sub ? " " + sub->get_name() : std::string()) << ": " << e.what()
+                  << "\n(see abrad" << (sub ? " " + sub->get_name() : std::string()) << " --help)\n";
+        return kExitBadInput;
+    }
+    const std::string cmd = app.get_subcommands().front()->get_name();
+
+    try {
+        if (cmd == "import") {
+            const visdb::Scene scene = read_models(import_args);
+            import_into(scene, db);
+        } else if (cmd == "bake") {
+            bake_into(db, to_options(bake_args));
+        } else if (cmd == "export") {
+            export_bake(db, bake_name, format, output, ascii);
+        } else if (cmd == "info") {
+            print_info(db);
+        } else if (cmd == "run") {
+            const radiosity::BakeOptions options = to_options(bake_args);
+            const visdb::Scene scene = read_models(import_args);
+            fs::create_directories(out_dir);
+            const std::string stem = fs::path(import_args.models.front()).stem().string();
+            const fs::path final_db = fs::path(out_dir) / (stem + ".visdb");
+            // Build the database beside its final name; replace only when everything worked
+            const fs::path tmp_db = fs::path(out_dir) / (stem + ".visdb.partial");
+            fs::remove(tmp_db);
+            try {
+                import_into(scene, tmp_db.string());
+                bake_into(tmp_db.string(), options);
+            } catch (...) {
+                fs::remove(tmp_db);
+                throw;
+            }
+            fs::rename(tmp_db, final_db);
+            export_bake(final_db.string(), "", "ply", (fs::path(out_dir) / (stem + ".ply")).string(), false);
+            export_bake(final_db.string(), "", "obj", (fs::path(out_dir) / (stem + ".obj")).string(), false);
+            std::cout << "database " << final_db.string() << "\n";
+        }
+    } catch (const CommandError& e) {
+        std::cerr << "abrad " << cmd << ": " << e.message << "\n";
+        return e.status;
+    } catch (const visdb::StoreError& e) {
+        std::cerr << "abrad " << cmd << ": " << e.what() << "\n";
+        return kExitBadInput;
+    } catch (const exporter::ExportError& e) {
+        std::cerr << "abrad " << cmd << ": " << e.what() << "\n";
+        return kExitFailure;
+    } catch (const std::exception& e) {
+        std::cerr << "abrad " << cmd << ": " << e.what() << "\n";
+        return kExitFailure;
+    }
+    return kExitOk;
+}
+
+}  // namespace
+}  // namespace abrad::tools
+
+int main(int argc, char** argv) { return abrad::tools::run_cli(argc, argv); }
