@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -217,6 +218,15 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
               << stat_text(b.statistics, "received_power_w") << " W (mean over RGB)\n";
 }
 
+std::string utc_now() {
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
 visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in) {
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
     const visdb::Scene scene = store.load_scene();
@@ -229,6 +239,7 @@ visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& optio
     } catch (const radiosity::BakeError& e) {
         bad_input(db + ": " + e.what());
     }
+    b.created_at = utc_now();
     store.add_bake(b);
     print_bake_summary(b, scene);
     return b;

@@ -1,0 +1,252 @@
+// The abrad command line end to end: exit codes, messages naming file and line, databases
+// left as they were on bad input or a killed bake, and the exported PLY against a closed form.
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "abrad/radiosity/form_factor.h"
+#include "abrad/visdb/store.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+    int status;
+    std::string output;  // stdout and stderr
+};
+
+Result run(const std::string& args) {
+    const std::string cmd = std::string(ABRAD_EXE) + " " + args + " 2>&1";
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return {-1, "popen failed"};
+    std::string out;
+    char buf[4096];
+    std::size_t n;
+    while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
+    const int st = pclose(pipe);
+    return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+std::string bytes(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+class Cli : public ::testing::Test {
+protected:
+    void SetUp() override {
+        m_dir = fs::temp_directory_path() /
+                ("abrad_cli_" + std::to_string(getpid()) + "_" +
+                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        fs::remove_all(m_dir);
+        fs::create_directories(m_dir);
+    }
+    void TearDown() override {
+        if (!HasFailure()) fs::remove_all(m_dir);
+    }
+    fs::path path(const std::string& name) const { return m_dir / name; }
+    std::string write(const std::string& name, const std::string& text) const {
+        std::ofstream(path(name)) << text;
+        return path(name).string();
+    }
+    std::string sample(const std::string& rel) const { return std::string(ABRAD_SAMPLES) + "/" + rel; }
+    // A database holding the paper's occluder room and one bake.
+    std::string baked_db() const {
+        const std::string db = path("room.visdb").string();
+        EXPECT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db).status, 0);
+        EXPECT_EQ(run("bake --db " + db + " --name first").status, 0);
+        return db;
+    }
+
+    fs::path m_dir;
+};
+
+TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
+    const std::string db = baked_db();
+    const std::string before = bytes(db);
+    struct Case {
+        std::string name, text;
+        int line;
+    };
+    const std::vector<Case> cases = {
+        {"malformed.obj", "v 0 0 0\nv 1 0 0\nv 1 x 0\nf 1 2 3\n", 3},
+        {"range.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 9\n", 4},
+        {"nan.obj", "v 0 0 0\nv nan 0 0\nv 1 1 0\nf 1 2 3\n", 2},
+        {"inf.obj", "v 0 0 0\nv 1 0 0\nv 1 1e999 0\nf 1 2 3\n", 3},
+    };
+    for (const Case& c : cases) {
+        const std::string file = write(c.name, c.text);
+        const Result r = run("import " + file + " --db " + db);
+        EXPECT_EQ(r.status, 2) << r.output;
+        EXPECT_NE(r.output.find("abrad import: " + file + ":" + std::to_string(c.line) + ":"),
+                  std::string::npos)
+            << r.output;
+        EXPECT_EQ(bytes(db), before) << c.name;
+    }
+    // No faces, a missing file, an unknown format
+    const std::string empty = write("empty.obj", "v 0 0 0\n");
+    EXPECT_EQ(run("import " + empty + " --db " + db).status, 2);
+    EXPECT_EQ(run("import " + path("missing.obj").string() + " --db " + db).status, 2);
+    EXPECT_EQ(run("import " + write("model.xyz", "1 2 3\n") + " --db " + db).status, 2);
+    EXPECT_EQ(bytes(db), before);
+    // A bad model never creates a new database
+    EXPECT_EQ(run("import " + empty + " --db " + path("new.visdb").string()).status, 2);
+    EXPECT_FALSE(fs::exists(path("new.visdb")));
+}
+
+TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
+    const std::string db = baked_db();
+    const std::string before = bytes(db);
+    for (const std::string opts : {"--resolution 51", "--subpixels 5", "--bounces 2", "--method nope",
+                                   "--shading nope", "--unknown-option 1"}) {
+        const Result r = run("bake --db " + db + " " + opts);
+        EXPECT_EQ(r.status, 2) << opts << "\n" << r.output;
+        EXPECT_NE(r.output.find("abrad"), std::string::npos);
+    }
+    EXPECT_EQ(bytes(db), before);
+    // A scene without lights cannot be baked
+    const std::string dark = path("dark.visdb").string();
+    const std::string obj = write("dark.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
+    ASSERT_EQ(run("import " + obj + " --db " + dark).status, 0);
+    const std::string dark_before = bytes(dark);
+    const Result r = run("bake --db " + dark);
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("no light sources"), std::string::npos) << r.output;
+    EXPECT_EQ(bytes(dark), dark_before);
+    // Missing database
+    EXPECT_EQ(run("bake --db " + path("none.visdb").string()).status, 2);
+    EXPECT_FALSE(fs::exists(path("none.visdb")));
+}
+
+// Kill a bake at several moments: the database stays readable, and holds either the earlier
+// bakes only or the new bake complete.
+TEST_F(Cli, KilledBakeLeavesDatabaseReadableAndUnchanged) {
+    const std::string db = baked_db();
+    const std::size_t first_vertices = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadWrite)
+                                           .load_bake("first").mesh.positions.size();
+    int killed_before_commit = 0;
+    for (int delay_ms : {20, 80, 200, 400}) {
+        const pid_t pid = fork();
+        ASSERT_GE(pid, 0);
+        if (pid == 0) {
+            const int null = open("/dev/null", O_WRONLY);
+            dup2(null, 1);
+            dup2(null, 2);
+            execl(ABRAD_EXE, ABRAD_EXE, "bake", "--db", db.c_str(), "--name", "killed",
+                  "--resolution", "300", "--threads", "1", static_cast<char*>(nullptr));
+            _exit(127);
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+        kill(pid, SIGKILL);
+        int st = 0;
+        waitpid(pid, &st, 0);
+        const bool was_killed = WIFSIGNALED(st);
+        killed_before_commit += was_killed;
+
+        auto store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadWrite);
+        const auto bakes = store.list_bakes();
+        ASSERT_GE(bakes.size(), 1u);
+        EXPECT_EQ(bakes[0].name, "first");
+        EXPECT_EQ(store.load_bake("first").mesh.positions.size(), first_vertices);
+        if (bakes.size() == 2) {
+            EXPECT_FALSE(was_killed);  // a bake only appears once complete
+            EXPECT_EQ(store.load_bake("killed").mesh.positions.size(), first_vertices);
+        }
+    }
+    EXPECT_GT(killed_before_commit, 0);
+    const Result info = run("info --db " + db);
+    EXPECT_EQ(info.status, 0) << info.output;
+}
+
+// Import, bake, export through the command line; the exported PLY's header is the contract and
+// an unoccluded floor vertex carries the closed-form irradiance of the 1×1 m light.
+TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
+    const Result r = run("run " + sample("paper_simple/paper_occluder.obj") + " --out " + m_dir.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    const std::string ply = bytes(path("paper_occluder.ply"));
+    const std::string header_end = "end_header\n";
+    const std::size_t body = ply.find(header_end);
+    ASSERT_NE(body, std::string::npos);
+    const std::string header = ply.substr(0, body + header_end.size());
+    std::istringstream hs(header);
+    std::vector<std::string> lines;
+    for (std::string l; std::getline(hs, l);)
+        if (l.rfind("comment", 0) != 0) lines.push_back(l);
+    auto store = abrad::visdb::Store::open(path("paper_occluder.visdb").string(), abrad::visdb::OpenMode::ReadWrite);
+    const auto bake = store.load_bake();
+    const std::vector<std::string> expected = {
+        "ply", "format binary_little_endian 1.0",
+        "element vertex " + std::to_string(bake.mesh.positions.size()),
+        "property double x", "property double y", "property double z",
+        "property float nx", "property float ny", "property float nz",
+        "property uchar red", "property uchar green", "property uchar blue",
+        "property float irradiance_r", "property float irradiance_g", "property float irradiance_b",
+        "property float radiosity_r", "property float radiosity_g", "property float radiosity_b",
+        "element face " + std::to_string(bake.mesh.triangles.size()),
+        "property list uchar int vertex_indices", "property int surface", "end_header"};
+    EXPECT_EQ(lines, expected);
+
+    // Binary vertex records: 3 doubles, 3 floats, 3 bytes, 6 floats
+    const std::size_t stride = 3 * 8 + 3 * 4 + 3 + 6 * 4;
+    ASSERT_GE(ply.size(), body + header_end.size() + stride * bake.mesh.positions.size());
+    const char* base = ply.data() + body + header_end.size();
+    int found = 0;
+    for (std::size_t v = 0; v < bake.mesh.positions.size(); ++v) {
+        double p[3];
+        float n[3], h[3];
+        std::memcpy(p, base + v * stride, 24);
+        std::memcpy(n, base + v * stride + 24, 12);
+        std::memcpy(h, base + v * stride + 39, 12);
+        if (std::abs(p[0] - 1.5) < 1e-9 && std::abs(p[1] - 1.5) < 1e-9 && p[2] == 0.0 && n[2] > 0.5f) {
+            // Light [-0.5, 0.5]² at 2.9 m, E = 100 W/m²; the occluder does not hide it from here
+            const double e = 100.0 * abrad::radiosity::ff_parallel_rectangle_corner(2.0, 2.0, 2.9) -
+                             100.0 * abrad::radiosity::ff_parallel_rectangle_corner(1.0, 2.0, 2.9) -
+                             100.0 * abrad::radiosity::ff_parallel_rectangle_corner(2.0, 1.0, 2.9) +
+                             100.0 * abrad::radiosity::ff_parallel_rectangle_corner(1.0, 1.0, 2.9);
+            EXPECT_NEAR(h[0], e, 1e-5 * e);
+            EXPECT_NEAR(h[2], e, 1e-5 * e);
+            ++found;
+        }
+    }
+    EXPECT_EQ(found, 1);
+    // OBJ and MTL beside it
+    EXPECT_NE(bytes(path("paper_occluder.obj")).find("\nv "), std::string::npos);
+    EXPECT_NE(bytes(path("paper_occluder.mtl")).find("Ke 100 100 100"), std::string::npos);
+}
+
+TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
+    const std::string db = baked_db();
+    const Result info = run("info --db " + db);
+    ASSERT_EQ(info.status, 0) << info.output;
+    for (const char* needle : {"schema 1", "paper_occluder.obj", "triangles 3213", "lights: 2 triangles",
+                               "bakes (1)", "first", "method=abuffer", "resolution=50", "seconds_total="})
+        EXPECT_NE(info.output.find(needle), std::string::npos) << needle << "\n" << info.output;
+    // ASCII export and binary export carry the same numbers of elements
+    ASSERT_EQ(run("export --db " + db + " --format ply --ascii --output " + path("a.ply").string()).status, 0);
+    const std::string ascii = bytes(path("a.ply"));
+    EXPECT_NE(ascii.find("format ascii 1.0"), std::string::npos);
+    const Result bad = run("export --db " + db + " --format ply --bake nope --output " + path("b.ply").string());
+    EXPECT_EQ(bad.status, 2) << bad.output;
+    EXPECT_NE(bad.output.find("nope"), std::string::npos);
+    EXPECT_FALSE(fs::exists(path("b.ply")));
+    EXPECT_EQ(run("info --db " + path("missing.visdb").string()).status, 2);
+}
+
+}  // namespace
