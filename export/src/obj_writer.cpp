@@ -31,8 +31,9 @@ std::map<std::uint32_t, std::string> material_names(const visdb::Scene& scene,
     std::set<std::string> taken;
     for (const auto m : used) {
         std::string name = detail::sanitise_name(scene.materials[m].name);
-        if (name.empty()) name = "material_" + std::to_string(m);
-        if (taken.count(name) != 0) name += "_" + std::to_string(m);
+        // append() rather than "literal" + to_string(): GCC 12 -O3 warns falsely (-Wrestrict)
+        if (name.empty()) name = std::string("material_").append(std::to_string(m));
+        if (taken.count(name) != 0) name.append("_").append(std::to_string(m));
         taken.insert(name);
         names.emplace(m, std::move(name));
     }

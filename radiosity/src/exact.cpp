@@ -75,11 +75,21 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
     for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
         const Patch* occ = occluders[oi];
         if (stats) ++stats->occluders_tested;
+        // Quick rejection: a blocking point lies strictly above x's tangent plane and strictly
+        // between x and the light's plane (0 < r < 1, r = s(p)/s(x))
+        constexpr double kEps = 1e-9;
+        bool above = false, below_light = false, beyond_x = false;
+        for (const auto& p : occ->p) {
+            const double r = glm::dot(p - l0, nl) / sx;
+            above = above || glm::dot(p - x, n) > 0.0;
+            below_light = below_light || r < 1.0 - kEps;
+            beyond_x = beyond_x || r > kEps;
+        }
+        if (!above || !below_light || !beyond_x) continue;
         // Keep the part of the occluder strictly between the light plane and x:
-        // r = s(p)/s(x) in (eps, 1 - eps)
+        // r in (eps, 1 - eps)
         Polygon3 part;
         for (const auto& p : occ->p) part.push_back(p);
-        constexpr double kEps = 1e-9;
         part = clip_polygon(part, [&](const glm::dvec3& p) {
             return glm::dot(p - l0, nl) / sx - kEps;
         });
