@@ -120,6 +120,32 @@ inline void sample_range(double lo, double hi, int count, int& c0, int& c1) {
     c1 = static_cast<int>(std::clamp(std::ceil(hi - 0.5), 0.0, static_cast<double>(count)));
 }
 
+// Sample-row spans of a convex polygon over one pixel row strip [y0, y0 + 1], N rows.
+template <int N>
+struct RowSpans {
+    double xl[N], xr[N];
+    bool has[N];
+    void compute(const Poly2& p, double y0) {
+        for (int k = 0; k < N; ++k) has[k] = span_at(p, y0 + (k + 0.5) / N, xl[k], xr[k]);
+    }
+    // Coverage mask of column [i, i+1]; `sx`, `sy` accumulate the covered sample positions.
+    Mask<N> mask(int i, double y0, double& sx, double& sy) const {
+        Mask<N> m;
+        for (int k = 0; k < N; ++k) {
+            if (!has[k]) continue;
+            int c0, c1;
+            sample_range((xl[k] - i) * N, (xr[k] - i) * N, N, c0, c1);
+            if (c1 > c0) {
+                m.set_row(k, c0, c1);
+                const double n = c1 - c0;
+                sx += n * (i + (c0 + c1) * 0.5 / N);
+                sy += n * (y0 + (k + 0.5) / N);
+            }
+        }
+        return m;
+    }
+};
+
 // The plane of a patch in face coordinates, for depth along a pixel's ray.
 struct DepthPlane {
     glm::dvec3 normal;
@@ -165,8 +191,8 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
     const int j1 = std::min(H, static_cast<int>(std::ceil(ymax)));
     const std::size_t base = hc.face_offset(face);
 
-    double xl[2 * S], xr[2 * S];
-    bool has[2 * S];
+    RowSpans<S> coarse;
+    RowSpans<2 * S> fine;
     for (int j = j0; j < j1; ++j) {
         // Clip the polygon to the row strip [j, j+1] to find the touched columns
         const double y0 = j, y1 = j + 1.0;
@@ -181,42 +207,24 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
         const int i0 = std::max(0, static_cast<int>(std::floor(xmin)));
         const int i1 = std::min(W, static_cast<int>(std::ceil(xmax)));
 
-        // Spans of the S sample rows of this strip
-        for (int k = 0; k < S; ++k) has[k] = span_at(p, y0 + (k + 0.5) / S, xl[k], xr[k]);
-        bool fine_spans = false;
-
+        // Spans of the S sample rows of this strip; the 2S rows only when a pixel needs them
+        coarse.compute(p, y0);
+        bool fine_ready = false;
         for (int i = i0; i < i1; ++i) {
-            Mask<S> mask;
             double sx = 0.0, sy = 0.0;
-            for (int k = 0; k < S; ++k) {
-                if (!has[k]) continue;
-                int c0, c1;
-                sample_range((xl[k] - i) * S, (xr[k] - i) * S, S, c0, c1);
-                if (c1 > c0) {
-                    mask.set_row(k, c0, c1);
-                    const double n = c1 - c0;
-                    sx += n * (i + (c0 + c1) * 0.5 / S);
-                    sy += n * (y0 + (k + 0.5) / S);
-                }
-            }
+            const Mask<S> mask = coarse.mask(i, y0, sx, sy);
             std::uint32_t fine_index = kNoPatch;
             if (mask.empty()) {
                 // Clip to the pixel: touching with positive area but no sample = undersampled
                 Poly2 px = clip_polygon(strip, [&](const glm::dvec2& v) { return v.x - i; });
                 px = clip_polygon(px, [&](const glm::dvec2& v) { return (i + 1.0) - v.x; });
                 if (px.size() < 3 || std::abs(signed_area2(px)) <= 1e-14) continue;
-                if (!fine_spans) {
-                    for (int k = 0; k < 2 * S; ++k)
-                        has[k] = span_at(p, y0 + (k + 0.5) / (2 * S), xl[k], xr[k]);
-                    fine_spans = true;
+                if (!fine_ready) {
+                    fine.compute(p, y0);
+                    fine_ready = true;
                 }
-                Mask<2 * S> fm;
-                for (int k = 0; k < 2 * S; ++k) {
-                    if (!has[k]) continue;
-                    int c0, c1;
-                    sample_range((xl[k] - i) * 2 * S, (xr[k] - i) * 2 * S, 2 * S, c0, c1);
-                    fm.set_row(k, c0, c1);
-                }
+                double fx = 0.0, fy = 0.0;
+                Mask<2 * S> fm = fine.mask(i, y0, fx, fy);
                 // Centroid of the piece inside the pixel: depth, and the sample of last resort
                 glm::dvec2 c(0.0);
                 for (const auto& v : px) c += v;
@@ -235,10 +243,6 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
                 const double n = mask.count();
                 sx /= n;
                 sy /= n;
-            }
-            if (fine_spans) {  // restore coarse spans for the next column
-                for (int k = 0; k < S; ++k) has[k] = span_at(p, y0 + (k + 0.5) / S, xl[k], xr[k]);
-                fine_spans = false;
             }
             const double depth = plane.depth(hc.proj_a(sx), hc.proj_b(face, sy));
             out.fragments.push_back({static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)),
