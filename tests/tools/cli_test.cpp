@@ -106,6 +106,11 @@ TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
     EXPECT_EQ(run("import " + path("missing.obj").string() + " --db " + db).status, 2);
     EXPECT_EQ(run("import " + write("model.xyz", "1 2 3\n") + " --db " + db).status, 2);
     EXPECT_EQ(bytes(db), before);
+    // The same model twice would overlap itself: refused
+    const Result again = run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db);
+    EXPECT_EQ(again.status, 2) << again.output;
+    EXPECT_NE(again.output.find("already imported"), std::string::npos) << again.output;
+    EXPECT_EQ(bytes(db), before);
     // A bad model never creates a new database
     EXPECT_EQ(run("import " + empty + " --db " + path("new.visdb").string()).status, 2);
     EXPECT_FALSE(fs::exists(path("new.visdb")));
