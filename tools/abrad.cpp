@@ -7,6 +7,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <optional>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -23,6 +27,7 @@
 #include "abrad/convert/obj_import.h"
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/bake.h"
+#include "abrad/radiosity/direct.h"
 #include "abrad/visdb/store.h"
 
 namespace fs = std::filesystem;
@@ -319,6 +324,75 @@ void print_info(const std::string& db) {
     }
 }
 
+// Irradiance at the points of a CSV file (x,y,z,nx,ny,nz per line, metres; a header line and
+// blank lines allowed), written as CSV to stdout.
+void probe(const std::string& db, const std::string& points_path, const std::string& bake_name) {
+    std::ifstream in(points_path);
+    if (!in) bad_input(points_path + ": cannot open points file");
+    struct Point {
+        glm::dvec3 x, n;
+    };
+    std::vector<Point> points;
+    std::string line;
+    for (std::size_t number = 1; std::getline(in, line); ++number) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.find_first_not_of(" \t") == std::string::npos) continue;
+        double v[6];
+        int count = 0;
+        const char* p = line.data();
+        const char* end = line.data() + line.size();
+        bool ok = true;
+        while (ok && p < end) {
+            while (p < end && (*p == ' ' || *p == '\t')) ++p;
+            const auto [next, ec] = std::from_chars(p, end, count < 6 ? v[count] : v[5]);
+            ok = ec == std::errc() && count < 6 && std::isfinite(v[count]);
+            p = next;
+            ++count;
+            while (p < end && (*p == ' ' || *p == '\t')) ++p;
+            if (p < end) ok = ok && *p++ == ',';
+        }
+        if (!ok || count != 6) {
+            // A header: the first line, without any digit (a malformed first row is an error)
+            if (number == 1 && line.find_first_of("0123456789") == std::string::npos) continue;
+            bad_input(points_path + ":" + std::to_string(number) +
+                      ": expected six finite numbers x,y,z,nx,ny,nz");
+        }
+        const glm::dvec3 n(v[3], v[4], v[5]);
+        if (!(glm::length(n) > 0.0))
+            bad_input(points_path + ":" + std::to_string(number) + ": normal is zero");
+        points.push_back({{v[0], v[1], v[2]}, glm::normalize(n)});
+    }
+    if (points.empty()) bad_input(points_path + ": no points");
+
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    std::string unit = "W/m2";
+    if (!bake_name.empty()) {
+        try {
+            const auto b = store.load_bake(bake_name);
+            unit = b.unit;
+        } catch (const visdb::StoreError& e) {
+            bad_input(e.what());
+        }
+    }
+    const visdb::Scene scene = store.load_scene();
+    std::optional<radiosity::DirectField> field;
+    try {
+        field.emplace(scene);
+    } catch (const radiosity::BakeError& e) {
+        bad_input(db + ": " + e.what());
+    }
+    // Bakes so far are direct light only (--bounces 0): the exact direct value is the whole
+    // irradiance. Interreflection will add its interpolated indirect part here.
+    std::fprintf(stderr, "probe: %zu points, %zu light triangles, direct light only, unit %s\n",
+                 points.size(), field->light_triangles(), unit.c_str());
+    std::printf("x,y,z,nx,ny,nz,irradiance_r,irradiance_g,irradiance_b\n");
+    for (const Point& pt : points) {
+        const visdb::Rgb h = field->irradiance(pt.x, pt.n);
+        std::printf("%.17g,%.17g,%.17g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", pt.x.x, pt.x.y, pt.x.z,
+                    pt.n.x, pt.n.y, pt.n.z, h.x, h.y, h.z);
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 
 int run_cli(int argc, char** argv) {
@@ -351,6 +425,14 @@ int run_cli(int argc, char** argv) {
     auto* info_cmd = app.add_subcommand("info", "List what a visual database holds");
     info_cmd->add_option("--db", db, "Visual database")->required();
 
+    std::string points_path;
+    auto* probe_cmd = app.add_subcommand("probe", "Exact irradiance at points from a CSV file");
+    probe_cmd->add_option("--db", db, "Visual database")->required();
+    probe_cmd->add_option("--points", points_path, "CSV of x,y,z,nx,ny,nz per line (metres; a header "
+                                                   "line allowed)")->required();
+    probe_cmd->add_option("--bake", bake_name, "Bake whose unit to report (default: none needed for "
+                                               "direct light)");
+
     std::string out_dir;
     auto* run_cmd = app.add_subcommand("run", "Import, bake and export in one go");
     run_cmd->add_option("MODEL", import_args.models, "OBJ/MTL model files")->required();
@@ -377,6 +459,8 @@ int run_cli(int argc, char** argv) {
             bake_into(db, to_options(bake_args));
         } else if (cmd == "export") {
             export_bake(db, bake_name, format, output, ascii);
+        } else if (cmd == "probe") {
+            probe(db, points_path, bake_name);
         } else if (cmd == "info") {
             print_info(db);
         } else if (cmd == "run") {

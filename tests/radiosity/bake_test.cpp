@@ -8,6 +8,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/form_factor.h"
 #include "analytic.h"
 
@@ -147,6 +148,22 @@ TEST(Bake, VerticesNotSharedAcrossSurfacesOrNormals) {
             surface_of[v] = s;
         }
     EXPECT_EQ(b.mesh.positions.size(), 81u + 4u + 4u);
+}
+
+// The point evaluator (probes, grids) and the bake's exact shading agree at every vertex,
+// including the penumbra of the occluder.
+TEST(DirectField, AgreesWithExactBakeAtEveryVertex) {
+    const visdb::Scene scene = paper_scene(true);
+    const visdb::Bake b = bake(scene, BakeOptions{});
+    const DirectField field(scene);
+    EXPECT_EQ(field.light_triangles(), 2u);
+    for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+        const visdb::Rgb h = field.irradiance(b.mesh.positions[v], glm::dvec3(b.mesh.normals[v]));
+        EXPECT_NEAR(h.y, b.mesh.irradiance[v].y, 1e-5 * h.y + 1e-9) << "vertex " << v;
+    }
+    visdb::Scene dark = scene;
+    dark.materials[1].emittance = {0, 0, 0};
+    EXPECT_THROW(DirectField{dark}, BakeError);
 }
 
 }  // namespace

@@ -254,4 +254,53 @@ TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
     EXPECT_EQ(run("info --db " + path("missing.visdb").string()).status, 2);
 }
 
+// Probe points against closed forms: the 1×1 m light at 2.9 m with E = 100 W/m².
+TEST_F(Cli, ProbeWritesExactIrradianceAtPoints) {
+    const std::string db = baked_db();
+    const std::string csv = write("points.csv",
+                                  "x,y,z,nx,ny,nz\n1.5,1.5,0,0,0,1\n\n0, 0, 1.5, 0, 0, 2\r\n");
+    const std::string cmd = std::string(ABRAD_EXE) + " probe --db " + db + " --points " + csv;
+    FILE* pipe = popen(cmd.c_str(), "r");
+    ASSERT_NE(pipe, nullptr);
+    std::string out;
+    char buf[4096];
+    for (std::size_t n; (n = fread(buf, 1, sizeof buf, pipe)) > 0;) out.append(buf, n);
+    ASSERT_EQ(pclose(pipe), 0) << out;
+    std::istringstream lines(out);
+    std::string header, a, b, extra;
+    std::getline(lines, header);
+    std::getline(lines, a);
+    std::getline(lines, b);
+    EXPECT_EQ(header, "x,y,z,nx,ny,nz,irradiance_r,irradiance_g,irradiance_b");
+    EXPECT_FALSE(std::getline(lines, extra));
+    auto field = [](const std::string& line, int k) {
+        std::istringstream s(line);
+        std::string f;
+        for (int i = 0; i <= k; ++i) std::getline(s, f, ',');
+        return std::stod(f);
+    };
+    using abrad::radiosity::ff_parallel_rectangle_corner;
+    const double corner = 100.0 * (ff_parallel_rectangle_corner(2, 2, 2.9) - ff_parallel_rectangle_corner(1, 2, 2.9) -
+                                   ff_parallel_rectangle_corner(2, 1, 2.9) + ff_parallel_rectangle_corner(1, 1, 2.9));
+    const double centre = 100.0 * 4 * ff_parallel_rectangle_corner(0.5, 0.5, 1.4);
+    for (int k : {6, 7, 8}) {
+        EXPECT_NEAR(field(a, k), corner, 1e-7 * corner);
+        EXPECT_NEAR(field(b, k), centre, 1e-7 * centre);
+    }
+    EXPECT_NEAR(field(b, 5), 1.0, 1e-12);  // the normal is written normalised
+
+    // Bad input: a malformed line, a zero normal, no points, a missing file
+    const Result bad = run("probe --db " + db + " --points " + write("bad.csv", "1,2,3,0,0,1\n1,2,x,0,0,1\n"));
+    EXPECT_EQ(bad.status, 2);
+    EXPECT_NE(bad.output.find("bad.csv:2:"), std::string::npos) << bad.output;
+    const Result first = run("probe --db " + db + " --points " + write("first.csv", "1,2,x,0,0,1\n1,2,3,0,0,1\n"));
+    EXPECT_EQ(first.status, 2);
+    EXPECT_NE(first.output.find("first.csv:1:"), std::string::npos) << first.output;
+    const Result zero = run("probe --db " + db + " --points " + write("zero.csv", "1,2,3,0,0,0\n"));
+    EXPECT_EQ(zero.status, 2);
+    EXPECT_NE(zero.output.find("zero.csv:1: normal is zero"), std::string::npos) << zero.output;
+    EXPECT_EQ(run("probe --db " + db + " --points " + write("none.csv", "x,y,z,nx,ny,nz\n")).status, 2);
+    EXPECT_EQ(run("probe --db " + db + " --points " + path("missing.csv").string()).status, 2);
+}
+
 }  // namespace
