@@ -13,6 +13,7 @@
 #include <bit>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include "abrad/radiosity/polygon.h"
 
@@ -113,6 +114,16 @@ bool span_at(const Poly2& p, double y, double& xl, double& xr) {
     return xl < xr;
 }
 
+// Lowest and highest y of a polygon.
+std::pair<double, double> y_extent(const Poly2& p) {
+    double lo = p[0].y, hi = p[0].y;
+    for (const auto& v : p) {
+        lo = std::min(lo, v.y);
+        hi = std::max(hi, v.y);
+    }
+    return {lo, hi};
+}
+
 // Columns [c0, c1) of samples at positions base + (c + 0.5)/S·width... expressed in units of
 // sample spacing: samples with centre s + 0.5 in [lo, hi).
 inline void sample_range(double lo, double hi, int count, int& c0, int& c1) {
@@ -182,11 +193,7 @@ template <int S>
 void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
                        std::uint32_t patch, FragmentBuffer<S>& out, std::size_t& undersampled) {
     const int W = hc.width(face), H = hc.height(face);
-    double ymin = p[0].y, ymax = p[0].y;
-    for (const auto& v : p) {
-        ymin = std::min(ymin, v.y);
-        ymax = std::max(ymax, v.y);
-    }
+    const auto [ymin, ymax] = y_extent(p);
     const int j0 = std::max(0, static_cast<int>(std::floor(ymin)));
     const int j1 = std::min(H, static_cast<int>(std::ceil(ymax)));
     const std::size_t base = hc.face_offset(face);
@@ -255,11 +262,7 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
 void rasterize_points(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
                       std::uint32_t patch, FragmentBuffer<1>& out) {
     const int W = hc.width(face), H = hc.height(face);
-    double ymin = p[0].y, ymax = p[0].y;
-    for (const auto& v : p) {
-        ymin = std::min(ymin, v.y);
-        ymax = std::max(ymax, v.y);
-    }
+    const auto [ymin, ymax] = y_extent(p);
     const std::size_t base = hc.face_offset(face);
     int j0, j1;
     sample_range(ymin, ymax, H, j0, j1);
