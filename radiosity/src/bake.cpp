@@ -18,6 +18,7 @@
 #include <tbb/parallel_for.h>
 
 #include "abrad/radiosity/bvh.h"
+#include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/exact.h"
 
 namespace abrad::radiosity {
@@ -44,6 +45,7 @@ struct Work {
 // Splits vertices by surface and face normal: faces of different planes never share one.
 Work build_mesh(const visdb::Scene& scene) {
     Work w;
+    // Faces share a vertex when their exact (double) unit normals agree to cos >= 1 - 1e-9
     constexpr double kSameNormal = 1.0 - 1e-9;
     for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
         const visdb::Surface& surface = scene.surfaces[s];
@@ -51,8 +53,8 @@ Work build_mesh(const visdb::Scene& scene) {
             throw BakeError("surface '" + surface.name + "' has no material " +
                             std::to_string(surface.material));
         const visdb::Material& material = scene.materials[surface.material];
-        // For each source vertex: the bake vertices made from it, with their normals
-        std::vector<std::vector<std::uint32_t>> made(surface.mesh.positions.size());
+        // For each source vertex: the bake vertices made from it, with their exact normals
+        std::vector<std::vector<std::pair<std::uint32_t, glm::dvec3>>> made(surface.mesh.positions.size());
         for (const glm::u32vec3& t : surface.mesh.triangles) {
             const glm::dvec3 a = surface.mesh.positions.at(t.x), b = surface.mesh.positions.at(t.y),
                              c = surface.mesh.positions.at(t.z);
@@ -67,10 +69,8 @@ Work build_mesh(const visdb::Scene& scene) {
             for (int k = 0; k < 3; ++k) {
                 const std::uint32_t src = t[k];
                 std::uint32_t found = kNoPatch;
-                for (std::uint32_t cand : made[src])
-                    if (glm::dot(glm::dvec3(w.mesh.normals[cand]), normal) >= kSameNormal &&
-                        glm::dot(w.mesh.normals[cand] - glm::vec3(normal),
-                                 w.mesh.normals[cand] - glm::vec3(normal)) < 1e-10f) {
+                for (const auto& [cand, cand_normal] : made[src])
+                    if (glm::dot(cand_normal, normal) >= kSameNormal) {
                         found = cand;
                         break;
                     }
@@ -78,7 +78,7 @@ Work build_mesh(const visdb::Scene& scene) {
                     found = static_cast<std::uint32_t>(w.mesh.positions.size());
                     w.mesh.positions.push_back(surface.mesh.positions[src]);
                     w.mesh.normals.push_back(glm::vec3(normal));
-                    made[src].push_back(found);
+                    made[src].emplace_back(found, normal);
                 }
                 tri[k] = found;
             }
@@ -190,8 +190,6 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
             // the light's centroid), completed by a conservative bounding-volume query of the
             // region between the vertex and the light: occluders that hide only part of the
             // light (penumbra) may be invisible from the centroid.
-            Box light_box;
-            for (const auto& p : light.p) light_box.grow(p);
             tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 64), [&](const auto& range) {
                 std::vector<std::uint32_t> ids, listed, touched;
                 std::vector<const Patch*> occ;
@@ -208,10 +206,8 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
                     std::sort(listed.begin(), listed.end());
                     listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
                     ids = listed;
-                    Box region = light_box;
-                    region.grow(x);
-                    bvh.query(region, [&](std::uint32_t id) {
-                        if (id != l && !std::binary_search(listed.begin(), listed.end(), id)) ids.push_back(id);
+                    for_each_shadow_candidate(bvh, w.patches, l, x, [&](std::uint32_t id) {
+                        if (!std::binary_search(listed.begin(), listed.end(), id)) ids.push_back(id);
                     });
                     occ.clear();
                     for (std::uint32_t id : ids) occ.push_back(&w.patches[id]);

@@ -46,16 +46,10 @@ visdb::Rgb DirectField::irradiance(const glm::dvec3& x, const glm::dvec3& n) con
     visdb::Rgb h(0.0);
     std::vector<const Patch*> occluders;
     for (const std::uint32_t l : m_lights) {
-        const Patch& light = m_patches[l];
-        // Occluder candidates: every patch whose box meets the box of x and the light
-        Box region;
-        for (const auto& p : light.p) region.grow(p);
-        region.grow(x);
         occluders.clear();
-        m_bvh.query(region, [&](std::uint32_t id) {
-            if (id != l) occluders.push_back(&m_patches[id]);
-        });
-        h += m_emittance[l] * visible_form_factor(x, n, light, occluders);
+        for_each_shadow_candidate(m_bvh, m_patches, l, x,
+                                  [&](std::uint32_t id) { occluders.push_back(&m_patches[id]); });
+        h += m_emittance[l] * visible_form_factor(x, n, m_patches[l], occluders);
     }
     return h;
 }

@@ -166,5 +166,24 @@ TEST(DirectField, AgreesWithExactBakeAtEveryVertex) {
     EXPECT_THROW(DirectField{dark}, BakeError);
 }
 
+// Coplanar faces share their vertices on a tilted plane too, where the normal is not exactly
+// representable in float (a float-rounded comparison would split them at random).
+TEST(Bake, CoplanarFacesOfATiltedPlaneShareVertices) {
+    visdb::Scene scene = paper_scene(false);
+    visdb::Surface& floor = scene.surfaces[0];
+    for (auto& p : floor.mesh.positions) p = {p.x * 0.93, p.y * 0.71, 0.3 + p.y * 0.7 + p.x * 0.45};
+    const visdb::Bake b = bake(scene, BakeOptions{});
+    std::size_t floor_vertices = 0;
+    std::vector<bool> seen(b.mesh.positions.size(), false);
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
+        if (b.mesh.triangle_surface[t] == 0)
+            for (int k = 0; k < 3; ++k)
+                if (!seen[b.mesh.triangles[t][k]]) {
+                    seen[b.mesh.triangles[t][k]] = true;
+                    ++floor_vertices;
+                }
+    EXPECT_EQ(floor_vertices, 81u);
+}
+
 }  // namespace
 }  // namespace abrad::radiosity

@@ -4,6 +4,7 @@
 // exact clipping in visible_form_factor).
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -13,6 +14,20 @@
 #include "abrad/visdb/model.h"
 
 namespace abrad::radiosity {
+
+/// Calls `visit(id)` for every patch that may lie between `x` and the light triangle
+/// patches[light]: those whose box meets the box of x and the light (conservative; exact
+/// rejection is visible_form_factor's). The light itself is skipped.
+template <typename Visit>
+void for_each_shadow_candidate(const Bvh& bvh, std::span<const Patch> patches, std::uint32_t light,
+                               const glm::dvec3& x, Visit&& visit) {
+    Box region;
+    for (const auto& p : patches[light].p) region.grow(p);
+    region.grow(x);
+    bvh.query(region, [&](std::uint32_t id) {
+        if (id != light) visit(id);
+    });
+}
 
 class DirectField {
 public:
