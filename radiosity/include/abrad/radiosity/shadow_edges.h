@@ -1,0 +1,52 @@
+#pragma once
+// Shadow edges (Wang et al., "Using A-Buffer in Radiosity", Algorithm 3, ProjectShadowEdge;
+// ALGORITHMS.md section 5): occluder edges projected from points of a light onto a receiver
+// triangle's plane, clipped to the receiver, with the parts hidden by other opaque occluders
+// removed (translucent occluders let them pass).
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "abrad/radiosity/shoot.h"
+
+namespace abrad::radiosity {
+
+/// How a light-source triangle is modelled when casting shadow edges.
+enum class LightModel {
+    Centroid,  ///< one point light at the centroid: hard shadow edges
+    Vertices,  ///< a point light at each vertex: umbra and penumbra boundaries (EV events)
+    Area,      ///< Vertices plus the wedges through each light edge and occluder vertex (VE events)
+};
+
+std::string to_string(LightModel model);
+std::optional<LightModel> parse_light_model(std::string_view text);
+
+/// One shadow edge on a receiver: a segment in the receiver's plane, inside the receiver.
+struct ShadowSegment {
+    glm::dvec3 a, b;
+};
+
+struct ShadowStats {
+    std::size_t edges_projected = 0;        ///< occluder edge × light point projections made
+    std::size_t shared_edges_skipped = 0;   ///< shared edges that are no silhouette from the light point
+    std::size_t segments_split = 0;         ///< segments cut by an opaque occluder in front of them
+    std::size_t segments = 0;               ///< segments returned
+    ShadowStats& operator+=(const ShadowStats& o);
+};
+
+/// The shadow edges that `occluders` cast on `receiver` from `light` (front faces
+/// counter-clockwise; the light emits from its front). Only the part of the receiver in
+/// front of the light and facing it is considered. An occluder edge shared by two occluders
+/// is projected once, and not at all when it is no silhouette from the light point (both
+/// faces on one side, same opacity). Segments shorter than `min_length` metres are dropped.
+std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, const Patch& receiver,
+                                        std::span<const Patch* const> occluders,
+                                        double min_length = 1e-9, ShadowStats* stats = nullptr);
+
+}  // namespace abrad::radiosity
