@@ -1,4 +1,4 @@
-// abrad: the command line. Subcommands import, bake, export, info, run.
+// abrad: the command line. Subcommands import, bake, export, info, probe, field-error, run.
 //
 // Exit status: 0 success; 1 failure (I/O, internal); 2 bad input or usage (a malformed model,
 // an unknown option, a scene that cannot be baked). Errors go to stderr as
@@ -28,6 +28,7 @@
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/field_error.h"
 #include "abrad/visdb/store.h"
 
 namespace fs = std::filesystem;
@@ -64,6 +65,12 @@ struct BakeArgs {
     int bounces = 0;
     std::string shading = "exact";
     int threads = 0;
+    std::string dm = "on";
+    std::string lights = "area";
+    double dm_angle = 0.0;
+    int refine_rounds = 4;
+    double refine_tolerance = 0.05;
+    double refine_min_edge = 0.02;
 };
 
 void add_import_options(CLI::App& app, ImportArgs& a) {
@@ -94,6 +101,27 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
         ->check(CLI::IsMember({"exact", "patch"}))
         ->capture_default_str();
     app.add_option("--threads", a.threads, "Worker threads (0 = all cores)")->capture_default_str();
+    app.add_option("--dm", a.dm, "Discontinuity meshing: re-mesh receivers along shadow edges and "
+                                 "refine where the light changes")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
+    app.add_option("--lights", a.lights, "Light model for shadow edges: centroid (one point, hard "
+                                         "edges), vertices (umbra and penumbra) or area (also the "
+                                         "light-edge/occluder-vertex wedges)")
+        ->check(CLI::IsMember({"centroid", "vertices", "area"}))
+        ->capture_default_str();
+    app.add_option("--dm-angle", a.dm_angle, "Ruppert/Chew minimum triangle angle in degrees "
+                                             "(0 = no quality refinement, at most 20.7)")
+        ->capture_default_str();
+    app.add_option("--refine-rounds", a.refine_rounds, "Rounds of refinement where the exact "
+                                                       "irradiance departs from linear (0 = none)")
+        ->capture_default_str();
+    app.add_option("--refine-tolerance", a.refine_tolerance,
+                   "Split an edge when its midpoint's exact irradiance differs from the "
+                   "interpolated value by more than this fraction")
+        ->capture_default_str();
+    app.add_option("--refine-min-edge", a.refine_min_edge, "Shortest edge refinement splits, metres")
+        ->capture_default_str();
 }
 
 radiosity::BakeOptions to_options(const BakeArgs& a) {
@@ -105,6 +133,12 @@ radiosity::BakeOptions to_options(const BakeArgs& a) {
     o.bounces = a.bounces;
     o.shading = a.shading == "patch" ? radiosity::Shading::Patch : radiosity::Shading::Exact;
     o.threads = a.threads;
+    o.dm = a.dm == "on";
+    o.lights = *radiosity::parse_light_model(a.lights);
+    o.dm_min_angle = a.dm_angle;
+    o.refine_rounds = a.refine_rounds;
+    o.refine_tolerance = a.refine_tolerance;
+    o.refine_min_edge = a.refine_min_edge;
     try {
         radiosity::validate(o);
     } catch (const radiosity::BakeError& e) {
@@ -225,6 +259,13 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
     if (n)
         std::cout << "  receiver irradiance (luminance) min " << lo << " / mean " << sum / double(n)
                   << " / max " << hi << " " << b.unit << "\n";
+    if (stat_text(b.statistics, "dm_triangles_before") != "-")
+        std::cout << "  discontinuity mesh: " << stat_text(b.statistics, "dm_triangles_before") << " -> "
+                  << stat_text(b.statistics, "triangles") << " triangles, "
+                  << stat_text(b.statistics, "dm_shadow_segments") << " shadow segments, "
+                  << stat_text(b.statistics, "dm_refine_points") << " refinement points in "
+                  << stat_text(b.statistics, "dm_rounds") << " rounds, "
+                  << stat_text(b.statistics, "seconds_dm") << " s\n";
     std::cout << "  emitted " << stat_text(b.statistics, "emitted_power_w") << " W, reaching receivers "
               << stat_text(b.statistics, "received_power_w") << " W (mean over RGB)\n";
 }
@@ -393,6 +434,38 @@ void probe(const std::string& db, const std::string& points_path, const std::str
     }
 }
 
+// The field error of a bake (ALGORITHMS.md section 8): its Gouraud-interpolated irradiance
+// against the exact direct irradiance inside every receiver triangle, as `key: value` lines.
+void field_error(const std::string& db, const std::string& bake_name, int subdivisions) {
+    if (subdivisions < 1 || subdivisions > 64)
+        bad_input("--subdivisions must be in [1, 64], got " + std::to_string(subdivisions));
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    if (store.list_bakes().empty()) bad_input(db + ": no bake to measure (run abrad bake first)");
+    visdb::Bake b;
+    try {
+        b = store.load_bake(bake_name);
+    } catch (const visdb::StoreError& e) {
+        bad_input(e.what());
+    }
+    const visdb::Scene scene = store.load_scene();
+    std::optional<radiosity::DirectField> field;
+    try {
+        field.emplace(scene);
+    } catch (const radiosity::BakeError& e) {
+        bad_input(db + ": " + e.what());
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const radiosity::FieldError e = radiosity::field_error(
+        scene, b.mesh, [&](const glm::dvec3& x, const glm::dvec3& n) { return field->irradiance(x, n); },
+        {.subdivisions = subdivisions});
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("bake: %s\ntriangles: %zu\nreceiver_triangles: %zu\nreceiver_area_m2: %.6g\n"
+                "samples: %zu\nrelative_l1: %.6g\nabsolute_l1_w_m2: %.6g\nmean_exact_w_m2: %.6g\n"
+                "bake_seconds: %s\nmeasure_seconds: %.3g\n",
+                b.name.c_str(), b.mesh.triangles.size(), e.triangles, e.area_m2, e.samples, e.relative_l1,
+                e.absolute_l1, e.mean_exact, stat_text(b.statistics, "seconds_total").c_str(), seconds);
+}
+
 // ---------------------------------------------------------------------------------------
 
 int run_cli(int argc, char** argv) {
@@ -433,6 +506,15 @@ int run_cli(int argc, char** argv) {
     probe_cmd->add_option("--bake", bake_name, "Bake whose unit to report (default: none needed for "
                                                "direct light)");
 
+    int subdivisions = 3;
+    auto* error_cmd = app.add_subcommand("field-error", "Gouraud-interpolated irradiance of a bake "
+                                                        "against the exact direct irradiance");
+    error_cmd->add_option("--db", db, "Visual database")->required();
+    error_cmd->add_option("--bake", bake_name, "Bake name (default: the latest)");
+    error_cmd->add_option("--subdivisions", subdivisions, "Each triangle is sampled at the centroids "
+                                                          "of its k x k sub-triangles")
+        ->capture_default_str();
+
     std::string out_dir;
     auto* run_cmd = app.add_subcommand("run", "Import, bake and export in one go");
     run_cmd->add_option("MODEL", import_args.models, "OBJ/MTL model files")->required();
@@ -461,6 +543,8 @@ int run_cli(int argc, char** argv) {
             export_bake(db, bake_name, format, output, ascii);
         } else if (cmd == "probe") {
             probe(db, points_path, bake_name);
+        } else if (cmd == "field-error") {
+            field_error(db, bake_name, subdivisions);
         } else if (cmd == "info") {
             print_info(db);
         } else if (cmd == "run") {

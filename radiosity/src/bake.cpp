@@ -4,12 +4,16 @@
 #include "abrad/radiosity/bake.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <mutex>
 #include <numeric>
 #include <optional>
 #include <string>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -19,7 +23,9 @@
 
 #include "abrad/radiosity/bvh.h"
 #include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/dm_mesh.h"
 #include "abrad/radiosity/exact.h"
+#include "abrad/radiosity/shadow_edges.h"
 
 namespace abrad::radiosity {
 
@@ -41,6 +47,20 @@ struct Work {
     std::vector<std::uint32_t> incident_start, incident;  // triangles around each vertex (CSR)
     std::size_t degenerate = 0;
 };
+
+// Triangles around each vertex, as compressed rows.
+void build_incidence(const visdb::BakeMesh& mesh, std::vector<std::uint32_t>& start,
+                     std::vector<std::uint32_t>& incident) {
+    const std::size_t nv = mesh.positions.size();
+    start.assign(nv + 1, 0);
+    for (const auto& t : mesh.triangles)
+        for (int k = 0; k < 3; ++k) ++start[t[k] + 1];
+    for (std::size_t i = 0; i < nv; ++i) start[i + 1] += start[i];
+    incident.resize(start[nv]);
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+        for (int k = 0; k < 3; ++k) incident[fill[mesh.triangles[t][k]]++] = static_cast<std::uint32_t>(t);
+}
 
 // Splits vertices by surface and face normal: faces of different planes never share one.
 Work build_mesh(const visdb::Scene& scene) {
@@ -90,21 +110,175 @@ Work build_mesh(const visdb::Scene& scene) {
             w.reflectance.push_back(material.reflectance);
         }
     }
-    // Incident triangles of each vertex
-    const std::size_t nv = w.mesh.positions.size();
-    w.incident_start.assign(nv + 1, 0);
-    for (const auto& t : w.mesh.triangles)
-        for (int k = 0; k < 3; ++k) ++w.incident_start[t[k] + 1];
-    for (std::size_t i = 0; i < nv; ++i) w.incident_start[i + 1] += w.incident_start[i];
-    w.incident.resize(w.incident_start[nv]);
-    std::vector<std::uint32_t> fill(w.incident_start.begin(), w.incident_start.end() - 1);
-    for (std::size_t t = 0; t < w.mesh.triangles.size(); ++t)
-        for (int k = 0; k < 3; ++k)
-            w.incident[fill[w.mesh.triangles[t][k]]++] = static_cast<std::uint32_t>(t);
+    build_incidence(w.mesh, w.incident_start, w.incident);
     return w;
 }
 
 double mean(const visdb::Rgb& c) { return (c.x + c.y + c.z) / 3.0; }
+
+bool emits(const visdb::Rgb& e) { return e.x > 0.0 || e.y > 0.0 || e.z > 0.0; }
+
+glm::dvec3 unit_normal(const Patch& p) {
+    return glm::normalize(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]));
+}
+
+// Exact direct irradiance at any point from every light; occluders from a conservative query
+// of the box around the point and each light.
+visdb::Rgb exact_irradiance(const Work& w, const Bvh& bvh, std::span<const std::uint32_t> lights,
+                            const glm::dvec3& x, const glm::dvec3& n, std::vector<const Patch*>& occ) {
+    visdb::Rgb h(0.0);
+    for (const std::uint32_t l : lights) {
+        occ.clear();
+        for_each_shadow_candidate(bvh, w.patches, l, x, [&](std::uint32_t id) { occ.push_back(&w.patches[id]); });
+        h += w.emittance[l] * visible_form_factor(x, n, w.patches[l], occ);
+    }
+    return h;
+}
+
+// Planar regions: edge- or vertex-connected triangles of one surface and one plane (bake
+// vertices are already split by surface and normal, so connected components suffice).
+struct Regions {
+    std::vector<PlanarRegion> planar;
+    std::vector<std::uint32_t> surface;    // per region
+    std::vector<char> emitter;             // per region
+    std::vector<std::uint32_t> of_triangle;  // per bake triangle
+};
+
+Regions make_regions(const Work& w) {
+    const std::size_t nv = w.mesh.positions.size(), nt = w.mesh.triangles.size();
+    std::vector<std::uint32_t> parent(nv);
+    std::iota(parent.begin(), parent.end(), 0u);
+    auto find = [&](std::uint32_t a) {
+        while (parent[a] != a) a = parent[a] = parent[parent[a]];
+        return a;
+    };
+    for (const auto& t : w.mesh.triangles) {
+        const std::uint32_t a = find(t.x), b = find(t.y), c = find(t.z);
+        parent[b] = a;
+        parent[find(c)] = a;
+    }
+    Regions r;
+    r.of_triangle.resize(nt);
+    std::vector<std::uint32_t> region_of_root(nv, kNoPatch), local(nv, kNoPatch);
+    std::vector<glm::dvec3> normal_sum;
+    for (std::size_t t = 0; t < nt; ++t) {
+        const glm::u32vec3 tri = w.mesh.triangles[t];
+        const std::uint32_t root = find(tri.x);
+        if (region_of_root[root] == kNoPatch) {
+            region_of_root[root] = static_cast<std::uint32_t>(r.planar.size());
+            r.planar.emplace_back();
+            r.surface.push_back(w.mesh.triangle_surface[t]);
+            r.emitter.push_back(emits(w.emittance[t]));
+            normal_sum.emplace_back(0.0);
+        }
+        const std::uint32_t id = region_of_root[root];
+        r.of_triangle[t] = id;
+        PlanarRegion& region = r.planar[id];
+        glm::u32vec3 lt;
+        for (int k = 0; k < 3; ++k) {
+            if (local[tri[k]] == kNoPatch) {
+                local[tri[k]] = static_cast<std::uint32_t>(region.positions.size());
+                region.positions.push_back(w.mesh.positions[tri[k]]);
+            }
+            lt[k] = local[tri[k]];
+        }
+        region.triangles.push_back(lt);
+        const Patch& p = w.patches[t];
+        normal_sum[id] += glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]);
+    }
+    for (std::size_t i = 0; i < r.planar.size(); ++i) r.planar[i].normal = glm::normalize(normal_sum[i]);
+    return r;
+}
+
+// Exact position (and region) as a hash key.
+struct PointKey {
+    std::uint32_t region;
+    std::array<std::uint64_t, 3> bits;
+    friend bool operator==(const PointKey&, const PointKey&) = default;
+};
+PointKey key_of(std::uint32_t region, const glm::dvec3& p) {
+    PointKey k{region, {}};
+    for (int i = 0; i < 3; ++i) std::memcpy(&k.bits[i], &p[i], sizeof(double));
+    return k;
+}
+struct PointKeyHash {
+    std::size_t operator()(const PointKey& k) const {
+        std::uint64_t h = 0xcbf29ce484222325ULL ^ k.region;
+        for (std::uint64_t b : k.bits) h = (h ^ b) * 0x100000001b3ULL;
+        return static_cast<std::size_t>(h ^ (h >> 29));
+    }
+};
+
+// The meshed regions as one bake mesh (each region's vertices its own).
+void assemble(const Regions& regions, const std::vector<MeshedRegion>& meshed, visdb::BakeMesh& mesh,
+              std::vector<std::uint32_t>& vertex_region) {
+    mesh = {};
+    vertex_region.clear();
+    for (std::size_t r = 0; r < meshed.size(); ++r) {
+        const auto base = static_cast<std::uint32_t>(mesh.positions.size());
+        const glm::vec3 n(regions.planar[r].normal);
+        for (const glm::dvec3& p : meshed[r].positions) {
+            mesh.positions.push_back(p);
+            mesh.normals.push_back(n);
+            vertex_region.push_back(static_cast<std::uint32_t>(r));
+        }
+        for (const glm::u32vec3& t : meshed[r].triangles) {
+            mesh.triangles.push_back(t + glm::u32vec3(base));
+            mesh.triangle_surface.push_back(regions.surface[r]);
+        }
+    }
+}
+
+// Per triangle: the patch, its area, emittance and reflectance (for shooting onto a mesh).
+void describe_triangles(const visdb::Scene& scene, Work& w) {
+    w.patches.clear();
+    w.area.clear();
+    w.emittance.clear();
+    w.reflectance.clear();
+    for (std::size_t t = 0; t < w.mesh.triangles.size(); ++t) {
+        const glm::u32vec3 tri = w.mesh.triangles[t];
+        const visdb::Material& m = scene.materials[scene.surfaces[w.mesh.triangle_surface[t]].material];
+        const Patch p{{w.mesh.positions[tri.x], w.mesh.positions[tri.y], w.mesh.positions[tri.z]}, m.opacity};
+        w.patches.push_back(p);
+        w.area.push_back(0.5 * glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0])));
+        w.emittance.push_back(m.emittance);
+        w.reflectance.push_back(m.reflectance);
+    }
+    build_incidence(w.mesh, w.incident_start, w.incident);
+}
+
+// Patch irradiance H_j = E_L · F_Lj · A_L / A_j of every triangle of `target` from one shot
+// at the light's centroid; returns Σ F.
+double add_patch_irradiance(const ShootResult& shot, const visdb::Rgb& emittance, double light_area,
+                            const Work& target, std::vector<visdb::Rgb>& tri) {
+    double ff_sum = 0.0;
+    for (std::size_t j = 0; j < target.patches.size(); ++j) {
+        if (shot.form_factor[j] <= 0.0 || !(target.area[j] > 0.0)) continue;
+        ff_sum += shot.form_factor[j];
+        tri[j] += emittance * (shot.form_factor[j] * light_area / target.area[j]);
+    }
+    return ff_sum;
+}
+
+// Each vertex gets the area-weighted irradiance of its triangles.
+std::vector<visdb::Rgb> average_to_vertices(const Work& w, const std::vector<visdb::Rgb>& tri) {
+    std::vector<visdb::Rgb> vert(w.mesh.positions.size(), visdb::Rgb(0.0));
+    for (std::size_t v = 0; v < vert.size(); ++v) {
+        visdb::Rgb sum(0.0);
+        double area = 0.0;
+        for (std::uint32_t k = w.incident_start[v]; k < w.incident_start[v + 1]; ++k) {
+            const std::uint32_t t = w.incident[k];
+            sum += tri[t] * w.area[t];
+            area += w.area[t];
+        }
+        vert[v] = area > 0.0 ? sum / area : visdb::Rgb(0.0);
+    }
+    return vert;
+}
+
+ShooterFrame light_frame(const Patch& light) {
+    return ShooterFrame::at((light.p[0] + light.p[1] + light.p[2]) / 3.0, unit_normal(light));
+}
 
 }  // namespace
 
@@ -121,6 +295,14 @@ void validate(const BakeOptions& o) {
         throw BakeError("--bounces " + std::to_string(o.bounces) +
                         ": only direct light (--bounces 0) is implemented so far");
     if (o.threads < 0) throw BakeError("--threads must be >= 0, got " + std::to_string(o.threads));
+    if (!(o.dm_min_angle >= 0.0 && o.dm_min_angle <= 20.7))
+        throw BakeError("--dm-angle must be in [0, 20.7] degrees, got " + std::to_string(o.dm_min_angle));
+    if (o.refine_rounds < 0 || o.refine_rounds > 20)
+        throw BakeError("--refine-rounds must be in [0, 20], got " + std::to_string(o.refine_rounds));
+    if (!(o.refine_tolerance > 0.0 && o.refine_tolerance < 1e3))
+        throw BakeError("--refine-tolerance must be > 0, got " + std::to_string(o.refine_tolerance));
+    if (!(o.refine_min_edge > 0.0 && std::isfinite(o.refine_min_edge)))
+        throw BakeError("--refine-min-edge must be > 0 metres, got " + std::to_string(o.refine_min_edge));
 }
 
 visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const ProgressFn& progress) {
@@ -132,8 +314,7 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
 
     std::vector<std::uint32_t> lights;
     for (std::size_t t = 0; t < nt; ++t)
-        if (w.emittance[t].x > 0.0 || w.emittance[t].y > 0.0 || w.emittance[t].z > 0.0)
-            lights.push_back(static_cast<std::uint32_t>(t));
+        if (emits(w.emittance[t])) lights.push_back(static_cast<std::uint32_t>(t));
     if (lights.empty())
         throw BakeError("the scene has no light sources (no material with emittance > 0)");
 
@@ -144,19 +325,23 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
 
     const Hemicube hemicube(options.resolution);
     const bool exact = options.shading == Shading::Exact;
+    const bool dm = options.dm;
     const ShootOptions shoot_options{.method = options.method,
                                      .subpixels = options.subpixels,
-                                     .occlusion = exact};
+                                     .occlusion = exact || dm};
 
-    // Shoot from every light triangle; accumulate irradiance per triangle (patch shading)
-    // and per vertex (exact shading)
+    // Shoot from every light triangle: patch irradiance per triangle; without DM, exact
+    // irradiance per vertex; with DM, the shadow edges on every receiver.
     std::vector<visdb::Rgb> tri_irradiance(nt, visdb::Rgb(0.0));
     std::vector<visdb::Rgb> vert_irradiance(nv, visdb::Rgb(0.0));
+    std::vector<std::vector<ShadowSegment>> segments(dm ? nt : 0);
+    ShadowStats shadow_stats;
     std::mutex accumulate;
     std::size_t fragments = 0, undersampled = 0, pairs = 0, raw_pairs = 0, done = 0;
     std::size_t occluders_tested = 0, occluders_touched = 0, occluders_missed_by_lists = 0;
+    std::size_t shadow_receivers = 0, shadow_occluders_listed = 0, shadow_occluders_added = 0;
     const Bvh bvh(w.patches);
-    double ff_sum_total = 0.0, seconds_shoot = 0.0, seconds_shade = 0.0;
+    double ff_sum_total = 0.0, seconds_shoot = 0.0, seconds_shade = 0.0, seconds_edges = 0.0;
     if (progress) progress("shoot", 0, lights.size());
 
     tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
@@ -164,27 +349,20 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
         const Patch& light = w.patches[l];
         const auto t0 = Clock::now();
         // Hemicube at the light triangle's centroid, around its front normal
-        const glm::dvec3 centroid = (light.p[0] + light.p[1] + light.p[2]) / 3.0;
-        const glm::dvec3 normal = glm::normalize(glm::cross(light.p[1] - light.p[0], light.p[2] - light.p[0]));
+        const glm::dvec3 normal = unit_normal(light);
         ShootOptions so = shoot_options;
         so.exclude = l;
-        const ShootResult shot = shoot(ShooterFrame::at(centroid, normal), w.patches, hemicube, so);
+        const ShootResult shot = shoot(light_frame(light), w.patches, hemicube, so);
         const double t_shoot = seconds_since(t0);
 
-        // Patch irradiance: H_j = E_L · F_Lj · A_L / A_j
         std::vector<visdb::Rgb> tri(nt, visdb::Rgb(0.0));
-        double ff_sum = 0.0;
-        for (std::size_t j = 0; j < nt; ++j) {
-            if (shot.form_factor[j] <= 0.0) continue;
-            ff_sum += shot.form_factor[j];
-            tri[j] = w.emittance[l] * (shot.form_factor[j] * w.area[l] / w.area[j]);
-        }
+        const double ff_sum = add_patch_irradiance(shot, w.emittance[l], w.area[l], w, tri);
 
         // Exact vertex irradiance past the occluders the fragment lists found
         std::vector<visdb::Rgb> vert;
         std::size_t tested = 0, touched_total = 0, missed = 0;
         const auto t1 = Clock::now();
-        if (exact) {
+        if (exact && !dm) {
             vert.assign(nv, visdb::Rgb(0.0));
             // Candidates: the occlusion lists of the vertex's triangles (Algorithm 2, from
             // the light's centroid), completed by a conservative bounding-volume query of the
@@ -224,10 +402,72 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
         }
         const double t_shade = seconds_since(t1);
 
+        // Shadow edges (Algorithm 3) on every receiver in front of the light that faces it.
+        // Occluders: the receiver's occlusion list, completed by a conservative query of the
+        // box around the light and the receiver (the lists come from the centroid only).
+        std::vector<std::pair<std::uint32_t, ShadowSegment>> found;
+        ShadowStats ss;
+        std::size_t receivers = 0, listed_total = 0, added_total = 0;
+        const auto t2 = Clock::now();
+        if (dm) {
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 32), [&](const auto& range) {
+                std::vector<std::pair<std::uint32_t, ShadowSegment>> here;
+                std::vector<std::uint32_t> ids;
+                std::vector<const Patch*> occ;
+                ShadowStats s;
+                std::size_t rec = 0, lis = 0, add = 0;
+                for (std::size_t j = range.begin(); j != range.end(); ++j) {
+                    if (j == l || emits(w.emittance[j])) continue;
+                    const Patch& r = w.patches[j];
+                    const glm::dvec3 rn = unit_normal(r);
+                    bool in_front = false, facing = false;
+                    for (int k = 0; k < 3; ++k) {
+                        in_front |= glm::dot(r.p[k] - light.p[0], normal) > 0.0;
+                        facing |= glm::dot(light.p[k] - r.p[0], rn) > 0.0;
+                    }
+                    if (!in_front || !facing) continue;
+                    ids.clear();
+                    for (const OcclusionPair& p : shot.occluders_of(static_cast<std::uint32_t>(j)))
+                        if (p.occluder != l) ids.push_back(p.occluder);
+                    const std::size_t n_listed = ids.size();
+                    Box box;
+                    for (int k = 0; k < 3; ++k) {
+                        box.grow(light.p[k]);
+                        box.grow(r.p[k]);
+                    }
+                    bvh.query(box, [&](std::uint32_t id) {
+                        if (id != l && id != j && std::find(ids.begin(), ids.begin() + n_listed, id) ==
+                                                      ids.begin() + n_listed)
+                            ids.push_back(id);
+                    });
+                    if (ids.empty()) continue;
+                    ++rec;
+                    lis += n_listed;
+                    add += ids.size() - n_listed;
+                    occ.clear();
+                    for (std::uint32_t id : ids) occ.push_back(&w.patches[id]);
+                    for (const ShadowSegment& seg : shadow_edges(light, options.lights, r, occ, 1e-6, &s))
+                        here.emplace_back(static_cast<std::uint32_t>(j), seg);
+                }
+                std::lock_guard lock(accumulate);
+                found.insert(found.end(), here.begin(), here.end());
+                ss += s;
+                receivers += rec;
+                listed_total += lis;
+                added_total += add;
+            });
+        }
+        const double t_edges = seconds_since(t2);
+
         std::lock_guard lock(accumulate);
         for (std::size_t j = 0; j < nt; ++j) tri_irradiance[j] += tri[j];
-        if (exact)
+        if (exact && !dm)
             for (std::size_t v = 0; v < nv; ++v) vert_irradiance[v] += vert[v];
+        for (const auto& [j, seg] : found) segments[j].push_back(seg);
+        shadow_stats += ss;
+        shadow_receivers += receivers;
+        shadow_occluders_listed += listed_total;
+        shadow_occluders_added += added_total;
         fragments += shot.fragments;
         undersampled += shot.undersampled_pixels;
         pairs += shot.occlusion.size();
@@ -238,35 +478,10 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
         ff_sum_total += ff_sum;
         seconds_shoot += t_shoot;
         seconds_shade += t_shade;
+        seconds_edges += t_edges;
         ++done;
         if (progress) progress("shoot", done, lights.size());
     });
-
-    // Patch shading: each vertex gets the area-weighted irradiance of its triangles
-    if (!exact) {
-        for (std::size_t v = 0; v < nv; ++v) {
-            visdb::Rgb sum(0.0);
-            double area = 0.0;
-            for (std::uint32_t k = w.incident_start[v]; k < w.incident_start[v + 1]; ++k) {
-                const std::uint32_t t = w.incident[k];
-                sum += tri_irradiance[t] * w.area[t];
-                area += w.area[t];
-            }
-            vert_irradiance[v] = area > 0.0 ? sum / area : visdb::Rgb(0.0);
-        }
-    }
-
-    // Radiosity B = E + ρH at each vertex (material of its first triangle: all of a vertex's
-    // triangles belong to one surface)
-    visdb::BakeMesh& mesh = w.mesh;
-    mesh.irradiance.resize(nv);
-    mesh.radiosity.resize(nv);
-    for (std::size_t v = 0; v < nv; ++v) {
-        const std::uint32_t t = w.incident[w.incident_start[v]];
-        const visdb::Rgb h = vert_irradiance[v];
-        mesh.irradiance[v] = glm::vec3(h);
-        mesh.radiosity[v] = glm::vec3(w.emittance[t] + w.reflectance[t] * h);
-    }
 
     // Energy: emitted power, and power arriving on the receivers (from the hemicube)
     double emitted = 0.0, received = 0.0, light_area = 0.0;
@@ -275,6 +490,165 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
         light_area += w.area[l];
     }
     for (std::size_t t = 0; t < nt; ++t) received += mean(tri_irradiance[t]) * w.area[t];
+
+    std::vector<std::pair<std::string, double>> dm_statistics;
+    Work target;  // the mesh whose vertices are shaded: the scene's, or the discontinuity mesh
+    if (!dm) {
+        if (!exact) vert_irradiance = average_to_vertices(w, tri_irradiance);
+        target = std::move(w);
+    } else {
+        // Discontinuity meshing: per planar region, a CDT with the shadow edges, then rounds
+        // of refinement where the exact irradiance at an edge's midpoint departs from the
+        // linear interpolation of its ends.
+        const auto t_dm = Clock::now();
+        Regions regions = make_regions(w);
+        std::size_t constraints = 0;
+        for (std::size_t t = 0; t < nt; ++t)
+            for (const ShadowSegment& s : segments[t]) {
+                regions.planar[regions.of_triangle[t]].constraints.push_back({s.a, s.b});
+                ++constraints;
+            }
+        segments = {};
+        const DmOptions dm_options{.min_angle_deg = options.dm_min_angle, .merge_distance = 1e-6};
+        std::unordered_map<PointKey, visdb::Rgb, PointKeyHash> cache;
+        std::vector<std::uint32_t> vertex_region;
+        visdb::BakeMesh mesh;
+        std::vector<visdb::Rgb> h;
+        DmStats dm_stats;
+        std::size_t refine_points = 0, rounds = 0, evaluations = 0;
+        double seconds_mesh = 0.0;
+        for (int round = 0;; ++round) {
+            if (progress) progress("mesh", std::size_t(round), std::size_t(options.refine_rounds) + 1);
+            const auto tm = Clock::now();
+            DmStats st;
+            const std::vector<MeshedRegion> meshed = mesh_regions(regions.planar, dm_options, &st);
+            seconds_mesh += seconds_since(tm);
+            if (round == 0) dm_stats = st;
+            dm_stats.triangles_out = st.triangles_out;
+            dm_stats.conformity_points = st.conformity_points;
+            ++rounds;
+            assemble(regions, meshed, mesh, vertex_region);
+
+            // Exact irradiance at every vertex (cached by region and position across rounds)
+            const std::size_t n = mesh.positions.size();
+            h.assign(n, visdb::Rgb(0.0));
+            std::vector<char> fresh(n, 0);
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
+                std::vector<const Patch*> occ;
+                for (std::size_t v = range.begin(); v != range.end(); ++v) {
+                    const auto it = cache.find(key_of(vertex_region[v], mesh.positions[v]));
+                    if (it != cache.end()) {
+                        h[v] = it->second;
+                        continue;
+                    }
+                    h[v] = exact_irradiance(w, bvh, lights, mesh.positions[v],
+                                            regions.planar[vertex_region[v]].normal, occ);
+                    fresh[v] = 1;
+                }
+            });
+            for (std::size_t v = 0; v < n; ++v)
+                if (fresh[v]) {
+                    cache.emplace(key_of(vertex_region[v], mesh.positions[v]), h[v]);
+                    ++evaluations;
+                }
+            if (round >= options.refine_rounds) break;
+
+            // Refinement: test every edge of every non-emitting region at its midpoint
+            double h_max = 0.0;
+            for (const visdb::Rgb& x : h) h_max = std::max(h_max, mean(x));
+            const double floor = 1e-3 * h_max;
+            std::vector<std::uint32_t> region_start(meshed.size() + 1, 0);
+            for (std::size_t r = 0; r < meshed.size(); ++r)
+                region_start[r + 1] = region_start[r] + static_cast<std::uint32_t>(meshed[r].positions.size());
+            std::vector<std::vector<glm::dvec3>> split(meshed.size());
+            tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
+                if (regions.emitter[r]) return;
+                const MeshedRegion& m = meshed[r];
+                std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+                for (const glm::u32vec3& t : m.triangles)
+                    for (int k = 0; k < 3; ++k)
+                        edges.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+                std::sort(edges.begin(), edges.end());
+                edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+                std::vector<const Patch*> occ;
+                const glm::dvec3 rn = regions.planar[r].normal;
+                for (const auto& [a, b] : edges) {
+                    const glm::dvec3 pa = m.positions[a], pb = m.positions[b];
+                    if (glm::length(pb - pa) < options.refine_min_edge) continue;
+                    // Canonical midpoint: the same bits from either region sharing the edge
+                    const glm::dvec3 mid = std::lexicographical_compare(&pa.x, &pa.x + 3, &pb.x, &pb.x + 3)
+                                               ? pa + 0.5 * (pb - pa)
+                                               : pb + 0.5 * (pa - pb);
+                    const visdb::Rgb linear = 0.5 * (h[region_start[r] + a] + h[region_start[r] + b]);
+                    const visdb::Rgb at_mid = exact_irradiance(w, bvh, lights, mid, rn, occ);
+                    const double diff = mean(glm::abs(at_mid - linear));
+                    if (diff > floor && diff > options.refine_tolerance * std::max(mean(at_mid), mean(linear)))
+                        split[r].push_back(mid);
+                }
+            });
+            std::size_t added = 0;
+            std::unordered_set<PointKey, PointKeyHash> seen;
+            for (std::size_t r = 0; r < split.size(); ++r)
+                for (const glm::dvec3& p : split[r])
+                    if (seen.insert(key_of(0, p)).second) {
+                        regions.planar[r].points.push_back(p);
+                        ++added;
+                    }
+            refine_points += added;
+            if (added == 0) break;
+        }
+
+        target.mesh = std::move(mesh);
+        describe_triangles(scene, target);
+        if (exact) {
+            vert_irradiance = std::move(h);
+        } else {
+            // Patch shading on the new mesh: shoot again from every light onto its triangles
+            std::vector<visdb::Rgb> tri(target.mesh.triangles.size(), visdb::Rgb(0.0));
+            const ShootOptions so{.method = options.method, .subpixels = options.subpixels, .occlusion = false};
+            tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
+                const std::uint32_t l = lights[li];
+                // The light's own pieces lie in the shooter's plane and receive nothing
+                const ShootResult shot = shoot(light_frame(w.patches[l]), target.patches, hemicube, so);
+                std::vector<visdb::Rgb> mine(tri.size(), visdb::Rgb(0.0));
+                add_patch_irradiance(shot, w.emittance[l], w.area[l], target, mine);
+                std::lock_guard lock(accumulate);
+                for (std::size_t j = 0; j < tri.size(); ++j) tri[j] += mine[j];
+            });
+            vert_irradiance = average_to_vertices(target, tri);
+        }
+        dm_statistics = {{"dm_regions", double(regions.planar.size())},
+                         {"dm_triangles_before", double(nt)},
+                         {"dm_shadow_receivers", double(shadow_receivers)},
+                         {"dm_shadow_occluders_listed", double(shadow_occluders_listed)},
+                         {"dm_shadow_occluders_added_by_bvh", double(shadow_occluders_added)},
+                         {"dm_shadow_edges_projected", double(shadow_stats.edges_projected)},
+                         {"dm_shadow_shared_edges_skipped", double(shadow_stats.shared_edges_skipped)},
+                         {"dm_shadow_segments_split", double(shadow_stats.segments_split)},
+                         {"dm_shadow_segments", double(constraints)},
+                         {"dm_constraints_dropped", double(dm_stats.constraints_dropped)},
+                         {"dm_points_merged", double(dm_stats.points_merged)},
+                         {"dm_conformity_points", double(dm_stats.conformity_points)},
+                         {"dm_refine_points", double(refine_points)},
+                         {"dm_rounds", double(rounds)},
+                         {"dm_exact_evaluations", double(evaluations)},
+                         {"seconds_shadow_edges_cpu", seconds_edges},
+                         {"seconds_mesh", seconds_mesh},
+                         {"seconds_dm", seconds_since(t_dm)}};
+    }
+
+    // Radiosity B = E + ρH at each vertex (material of its first triangle: all of a vertex's
+    // triangles belong to one surface)
+    visdb::BakeMesh& mesh = target.mesh;
+    const std::size_t n_out = mesh.positions.size();
+    mesh.irradiance.resize(n_out);
+    mesh.radiosity.resize(n_out);
+    for (std::size_t v = 0; v < n_out; ++v) {
+        const std::uint32_t t = target.incident[target.incident_start[v]];
+        const visdb::Rgb h = vert_irradiance[v];
+        mesh.irradiance[v] = glm::vec3(h);
+        mesh.radiosity[v] = glm::vec3(target.emittance[t] + target.reflectance[t] * h);
+    }
 
     visdb::Bake result;
     result.name = options.name;
@@ -286,10 +660,17 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
                                            : std::string("1")},
                          {"bounces", std::to_string(options.bounces)},
                          {"shading", to_string(options.shading)},
-                         {"lights", "centroid"},
+                         {"dm", dm ? "on" : "off"},
+                         {"lights", to_string(options.lights)},
                          {"threads", std::to_string(options.threads)}};
-    result.statistics = {{"triangles", double(nt)},
-                         {"vertices", double(nv)},
+    if (dm) {
+        result.parameters.emplace_back("dm_angle", std::to_string(options.dm_min_angle));
+        result.parameters.emplace_back("refine_rounds", std::to_string(options.refine_rounds));
+        result.parameters.emplace_back("refine_tolerance", std::to_string(options.refine_tolerance));
+        result.parameters.emplace_back("refine_min_edge", std::to_string(options.refine_min_edge));
+    }
+    result.statistics = {{"triangles", double(mesh.triangles.size())},
+                         {"vertices", double(n_out)},
                          {"degenerate_skipped", double(w.degenerate)},
                          {"light_triangles", double(lights.size())},
                          {"light_area_m2", light_area},
@@ -297,15 +678,18 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
                          {"undersampled_fragments", double(undersampled)},
                          {"occlusion_pairs", double(pairs)},
                          {"occlusion_pairs_raw", double(raw_pairs)},
-                         {"occluders_tested", double(occluders_tested)},
-                         {"occluders_hiding_light", double(occluders_touched)},
-                         {"occluders_missed_by_lists", double(occluders_missed_by_lists)},
                          {"mean_form_factor_sum", ff_sum_total / double(lights.size())},
                          {"emitted_power_w", emitted},
                          {"received_power_w", received},
-                         {"seconds_shoot_cpu", seconds_shoot},
-                         {"seconds_shade_cpu", seconds_shade},
-                         {"seconds_total", seconds_since(t_start)}};
+                         {"seconds_shoot_cpu", seconds_shoot}};
+    if (!dm)
+        result.statistics.insert(result.statistics.end(),
+                                 {{"occluders_tested", double(occluders_tested)},
+                                  {"occluders_hiding_light", double(occluders_touched)},
+                                  {"occluders_missed_by_lists", double(occluders_missed_by_lists)},
+                                  {"seconds_shade_cpu", seconds_shade}});
+    result.statistics.insert(result.statistics.end(), dm_statistics.begin(), dm_statistics.end());
+    result.statistics.emplace_back("seconds_total", seconds_since(t_start));
     result.mesh = std::move(mesh);
     return result;
 }

@@ -33,10 +33,10 @@ def write(path, occluder):
     h = W / 2
     # Ceiling facing down, walls facing in
     quad((-h, -h, H), (-h, h, H), (h, h, H), (h, -h, H), "ceiling", "ceiling")
-    quad((-h, -h, 0), (h, -h, 0), (h, -h, H), (-h, -h, H), "wall_south", "wall")
-    quad((h, h, 0), (-h, h, 0), (-h, h, H), (h, h, H), "wall_north", "wall")
-    quad((-h, h, 0), (-h, -h, 0), (-h, -h, H), (-h, h, H), "wall_west", "wall")
-    quad((h, -h, 0), (h, h, 0), (h, h, H), (h, -h, H), "wall_east", "wall")
+    quad((-h, -h, 0), (-h, -h, H), (h, -h, H), (h, -h, 0), "wall_south", "wall")
+    quad((h, h, 0), (h, h, H), (-h, h, H), (-h, h, 0), "wall_north", "wall")
+    quad((-h, h, 0), (-h, h, H), (-h, -h, H), (-h, -h, 0), "wall_west", "wall")
+    quad((h, -h, 0), (h, -h, H), (h, h, H), (h, h, 0), "wall_east", "wall")
     # Area light facing down
     s = LIGHT / 2
     quad((-s, -s, LIGHT_Z), (-s, s, LIGHT_Z), (s, s, LIGHT_Z), (s, -s, LIGHT_Z), "light", "light")

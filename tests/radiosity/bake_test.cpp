@@ -61,7 +61,9 @@ double ff_light_part(const glm::dvec3& x, double sx0, double sx1, double sy0, do
 
 TEST(Bake, ExactShadingMatchesClosedFormOnTheFloor) {
     for (bool occluder : {false, true}) {
-        const visdb::Bake b = bake(paper_scene(occluder), BakeOptions{});
+        BakeOptions o;
+        o.dm = false;
+        const visdb::Bake b = bake(paper_scene(occluder), o);
         int floor_vertices = 0;
         for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
             if (b.mesh.triangle_surface[t] != 0) continue;
@@ -86,6 +88,7 @@ TEST(Bake, ExactShadingMatchesClosedFormOnTheFloor) {
 TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
     BakeOptions o;
     o.shading = Shading::Patch;
+    o.dm = false;
     const visdb::Scene scene = paper_scene(false);
     const visdb::Bake b = bake(scene, o);
     double received = 0.0;
@@ -112,7 +115,9 @@ TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
     for (const auto& tri : incident)
         for (const glm::dvec3 c : {glm::dvec3(1.0 / 6, -1.0 / 6, 1.5), glm::dvec3(-1.0 / 6, 1.0 / 6, 1.5)})
             expected += 10.0 * 0.5 * point_polygon_form_factor(c, {0, 0, -1}, tri) / (q * q / 2) / 6;
-    const visdb::Bake e = bake(scene, BakeOptions{});
+    BakeOptions exact_options;
+    exact_options.dm = false;
+    const visdb::Bake e = bake(scene, exact_options);
     int checked = 0;
     for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
         if (glm::length(b.mesh.positions[v]) < 1e-12) {
@@ -138,7 +143,9 @@ TEST(Bake, RejectsSceneWithoutLightsAndBadOptions) {
 
 // Vertices are split where faces of one surface differ in normal, never shared across surfaces.
 TEST(Bake, VerticesNotSharedAcrossSurfacesOrNormals) {
-    const visdb::Bake b = bake(paper_scene(true), BakeOptions{});
+    BakeOptions o;
+    o.dm = false;
+    const visdb::Bake b = bake(paper_scene(true), o);
     std::vector<int> surface_of(b.mesh.positions.size(), -1);
     for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
         for (int k = 0; k < 3; ++k) {
@@ -172,7 +179,9 @@ TEST(Bake, CoplanarFacesOfATiltedPlaneShareVertices) {
     visdb::Scene scene = paper_scene(false);
     visdb::Surface& floor = scene.surfaces[0];
     for (auto& p : floor.mesh.positions) p = {p.x * 0.93, p.y * 0.71, 0.3 + p.y * 0.7 + p.x * 0.45};
-    const visdb::Bake b = bake(scene, BakeOptions{});
+    BakeOptions o;
+    o.dm = false;
+    const visdb::Bake b = bake(scene, o);
     std::size_t floor_vertices = 0;
     std::vector<bool> seen(b.mesh.positions.size(), false);
     for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)

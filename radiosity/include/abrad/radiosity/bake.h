@@ -9,6 +9,7 @@
 #include <string>
 #include <string_view>
 
+#include "abrad/radiosity/shadow_edges.h"
 #include "abrad/radiosity/shoot.h"
 #include "abrad/visdb/model.h"
 
@@ -29,6 +30,15 @@ struct BakeOptions {
     int bounces = 0;      ///< 0 = direct light only (the paper's setting); more not yet built
     Shading shading = Shading::Exact;
     int threads = 0;      ///< 0 = all cores
+    /// Discontinuity meshing: receivers re-meshed along the shadow edges (CGAL CDT per
+    /// planar region), then refined where the exact irradiance departs from linear.
+    bool dm = true;
+    LightModel lights = LightModel::Area;  ///< how lights cast shadow edges
+    double dm_min_angle = 0.0;      ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
+    int refine_rounds = 4;          ///< illumination-driven refinement rounds (0 = shadow edges only)
+    double refine_tolerance = 0.05; ///< split an edge when its midpoint's exact irradiance departs
+                                    ///< from the linear interpolation by more than this, relative
+    double refine_min_edge = 0.02;  ///< edges shorter than this (metres) are not split
 };
 
 /// Bad bake settings or a scene that cannot be baked (no lights...): the caller exits 2.
@@ -40,12 +50,15 @@ public:
 /// Progress of a long bake: a stage name and `done` of `total` units.
 using ProgressFn = std::function<void(std::string_view stage, std::size_t done, std::size_t total)>;
 
-/// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces 0, threads >= 0);
-/// throws BakeError naming the option and value.
+/// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces 0, threads >= 0,
+/// dm_min_angle in [0, 20.7], refine_rounds in [0, 20], refine_tolerance > 0,
+/// refine_min_edge > 0); throws BakeError naming the option and value.
 void validate(const BakeOptions& options);
 
-/// Bakes direct light into `scene`. The result's mesh has one vertex per (surface, position,
-/// face normal); parameters and statistics are filled, `name` is options.name.
+/// Bakes direct light into `scene`. Without discontinuity meshing the result's mesh is the
+/// scene's, with one vertex per (surface, position, face normal); with it, each planar region
+/// is re-meshed (conforming: no T-vertices) and every vertex, old and new, is shaded by the
+/// shading mode. Parameters and statistics are filled, `name` is options.name.
 visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
                  const ProgressFn& progress = {});
 

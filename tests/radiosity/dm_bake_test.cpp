@@ -1,0 +1,165 @@
+// The bake with discontinuity meshing: shadow outlines become mesh vertices and edges where
+// the closed form puts them, the mesh stays conforming and keeps every surface's area, and
+// the field error falls against the bake without it.
+
+#include <algorithm>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <glm/geometric.hpp>
+
+#include "abrad/radiosity/bake.h"
+#include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/field_error.h"
+
+namespace abrad::radiosity {
+namespace {
+
+visdb::Surface quad_grid(const std::string& name, std::uint32_t material, glm::dvec3 o, glm::dvec3 u,
+                         glm::dvec3 v, int n) {
+    visdb::Surface s;
+    s.name = name;
+    s.material = material;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) s.mesh.positions.push_back(o + u * (double(i) / n) + v * (double(j) / n));
+    auto id = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            s.mesh.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+            s.mesh.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+        }
+    return s;
+}
+
+// A 2×2 m floor of n×n cells (front up), a 1×1 m light at 1.5 m facing down, a 0.4 m square
+// occluder at 0.75 m, and a 2-triangle wall standing on the floor's edge at x = 1 facing -x
+// (its foot meets the floor's vertices: T-vertices in the input).
+visdb::Scene room(int floor_cells) {
+    visdb::Scene scene;
+    scene.materials.push_back({"floor", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
+    scene.materials.push_back({"light", {0, 0, 0}, {10, 20, 5}, 1.0});
+    scene.materials.push_back({"occluder", {0.3, 0.3, 0.3}, {0, 0, 0}, 1.0});
+    scene.materials.push_back({"wall", {0.7, 0.7, 0.7}, {0, 0, 0}, 1.0});
+    scene.surfaces.push_back(quad_grid("floor", 0, {-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, floor_cells));
+    scene.surfaces.push_back(quad_grid("light", 1, {-0.5, -0.5, 1.5}, {0, 1, 0}, {1, 0, 0}, 1));
+    scene.surfaces.push_back(quad_grid("occluder", 2, {-0.2, -0.2, 0.75}, {0.4, 0, 0}, {0, 0.4, 0}, 1));
+    scene.surfaces.push_back(quad_grid("wall", 3, {1, -1, 0}, {0, 0, 1.5}, {0, 2, 0}, 1));
+    return scene;
+}
+
+double triangle_area(const visdb::BakeMesh& m, std::size_t t) {
+    const auto& tri = m.triangles[t];
+    return 0.5 * glm::length(glm::cross(m.positions[tri.y] - m.positions[tri.x], m.positions[tri.z] - m.positions[tri.x]));
+}
+
+// Vertices of `m` lying strictly inside an edge of another triangle (T-vertices).
+std::size_t count_t_vertices(const visdb::BakeMesh& m) {
+    std::vector<std::uint32_t> by_x(m.positions.size());
+    for (std::uint32_t i = 0; i < by_x.size(); ++i) by_x[i] = i;
+    std::sort(by_x.begin(), by_x.end(), [&](auto a, auto b) { return m.positions[a].x < m.positions[b].x; });
+    std::size_t found = 0;
+    for (const auto& t : m.triangles)
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 a = m.positions[t[k]], b = m.positions[t[(k + 1) % 3]];
+            const double lo = std::min(a.x, b.x) - 1e-9, hi = std::max(a.x, b.x) + 1e-9;
+            auto it = std::lower_bound(by_x.begin(), by_x.end(), lo,
+                                       [&](std::uint32_t v, double x) { return m.positions[v].x < x; });
+            const glm::dvec3 d = b - a;
+            const double len2 = glm::dot(d, d);
+            for (; it != by_x.end() && m.positions[*it].x <= hi; ++it) {
+                const glm::dvec3 p = m.positions[*it];
+                const double s = glm::dot(p - a, d) / len2;
+                if (s <= 1e-9 || s >= 1 - 1e-9) continue;
+                if (glm::length(a + s * d - p) < 1e-9) ++found;
+            }
+        }
+    return found;
+}
+
+TEST(DmBake, CentroidShadowCornersBecomeFloorVertices) {
+    const visdb::Scene scene = room(8);
+    BakeOptions o;
+    o.lights = LightModel::Centroid;
+    o.refine_rounds = 0;
+    const visdb::Bake b = bake(scene, o);
+    // Each light triangle's centroid L projects occluder corner c (at half height) to 2c - L
+    const std::vector<glm::dvec3> centroids = {{1.0 / 6, -1.0 / 6, 1.5}, {-1.0 / 6, 1.0 / 6, 1.5}};
+    for (const glm::dvec3& l : centroids)
+        for (double cx : {-0.2, 0.2})
+            for (double cy : {-0.2, 0.2}) {
+                const glm::dvec3 expected = 2.0 * glm::dvec3(cx, cy, 0.75) - l;
+                double nearest = 1e9;
+                for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
+                    if (b.mesh.triangle_surface[t] == 0)
+                        for (int k = 0; k < 3; ++k)
+                            nearest = std::min(nearest, glm::length(b.mesh.positions[b.mesh.triangles[t][k]] - expected));
+                EXPECT_LT(nearest, 1e-9) << "corner " << expected.x << "," << expected.y;
+            }
+}
+
+TEST(DmBake, ConformingOrientedAndAreaPreserved) {
+    const visdb::Scene scene = room(8);
+    for (LightModel model : {LightModel::Centroid, LightModel::Vertices, LightModel::Area}) {
+        BakeOptions o;
+        o.lights = model;
+        const visdb::Bake b = bake(scene, o);
+        std::map<std::uint32_t, double> area;
+        for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+            area[b.mesh.triangle_surface[t]] += triangle_area(b.mesh, t);
+            const auto& tri = b.mesh.triangles[t];
+            const glm::dvec3 cr = glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
+                                             b.mesh.positions[tri.z] - b.mesh.positions[tri.x]);
+            EXPECT_GT(glm::dot(cr, glm::dvec3(b.mesh.normals[tri.x])), 0.0);
+        }
+        const std::map<std::uint32_t, double> expected = {{0, 4.0}, {1, 1.0}, {2, 0.16}, {3, 3.0}};
+        for (const auto& [s, a] : expected) EXPECT_NEAR(area[s], a, 1e-9 * a) << to_string(model) << " surface " << s;
+        EXPECT_EQ(count_t_vertices(b.mesh), 0u) << to_string(model);
+        EXPECT_GT(b.mesh.triangles.size(), 8u * 8u * 2u + 6u) << to_string(model);
+    }
+}
+
+double field_error_of(const visdb::Scene& scene, const BakeOptions& o, std::size_t* triangles = nullptr) {
+    const visdb::Bake b = bake(scene, o);
+    const DirectField field(scene);
+    if (triangles) *triangles = b.mesh.triangles.size();
+    return field_error(scene, b.mesh, [&](const glm::dvec3& x, const glm::dvec3& n) { return field.irradiance(x, n); })
+        .relative_l1;
+}
+
+// A coarse floor (2×2 cells): without DM the shadow is smeared over whole cells.
+TEST(DmBake, FieldErrorIsAFractionOfTheUnmeshedOne) {
+    const visdb::Scene scene = room(2);
+    for (Shading shading : {Shading::Exact, Shading::Patch}) {
+        BakeOptions off;
+        off.dm = false;
+        off.shading = shading;
+        BakeOptions on;
+        on.shading = shading;
+        std::size_t t_off = 0, t_on = 0;
+        const double e_off = field_error_of(scene, off, &t_off), e_on = field_error_of(scene, on, &t_on);
+        EXPECT_GT(e_off, 0.2) << to_string(shading);
+        EXPECT_LT(e_on, (shading == Shading::Exact ? 0.15 : 0.5) * e_off) << to_string(shading);
+        EXPECT_LT(t_on, 200 * t_off) << to_string(shading);
+    }
+}
+
+TEST(DmBake, RejectsBadRefinementOptions) {
+    BakeOptions o;
+    o.dm_min_angle = 25;
+    EXPECT_THROW(validate(o), BakeError);
+    o = {};
+    o.refine_rounds = -1;
+    EXPECT_THROW(validate(o), BakeError);
+    o = {};
+    o.refine_tolerance = 0;
+    EXPECT_THROW(validate(o), BakeError);
+    o = {};
+    o.refine_min_edge = -1;
+    EXPECT_THROW(validate(o), BakeError);
+}
+
+}  // namespace
+}  // namespace abrad::radiosity
