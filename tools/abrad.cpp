@@ -69,8 +69,8 @@ struct BakeArgs {
     std::string lights = "area";
     double dm_angle = 0.0;
     int refine_rounds = 4;
-    double refine_tolerance = 0.05;
-    double refine_min_edge = 0.02;
+    double refine_tolerance = 0.1;
+    double refine_min_edge = 0.05;
 };
 
 void add_import_options(CLI::App& app, ImportArgs& a) {

@@ -1,8 +1,986 @@
-// PLACEHOLDER: being written.
+// Discontinuity meshing after Lischinski, Tampieri, Greenberg, "Discontinuity Meshing for
+// Accurate Radiosity" (1992): constrained Delaunay triangulation with Ruppert/Chew refinement
+// (Shewchuk, "Delaunay refinement algorithms for triangular mesh generation", 2002; CGAL Mesh_2).
+//
+// Numeric assumptions:
+// - All 2D orientation / in-circle predicates are exact (Epick filtered predicates).
+// - Where shadow edges cross, the crossing is computed exactly (Exact_intersections_tag) and
+//   rounded to double; the triangulation stays valid for the rounded points, constraints bend
+//   by at most one rounding at such a vertex.
+// - Every "is this point on that edge / next to that point" decision is made once, with
+//   merge_distance, and then carried as topology (vertex ids, polylines through shared
+//   vertices), never re-decided from rounded coordinates.
+// - Input vertices keep their exact 3D position; a vertex shared by several regions (a point
+//   on a shared boundary) carries one exact 3D position everywhere. Only vertices created here
+//   (crossings, snapped points, refinement) get origin + x u + y v.
+
 #include "abrad/radiosity/dm_mesh.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
 #include <stdexcept>
+#include <string>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+#include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Constrained_triangulation_plus_2.h>
+#include <CGAL/Delaunay_mesh_face_base_2.h>
+#include <CGAL/Delaunay_mesh_size_criteria_2.h>
+#include <CGAL/Delaunay_mesh_vertex_base_2.h>
+#include <CGAL/Delaunay_mesher_2.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
+
 namespace abrad::radiosity {
-std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion>, const DmOptions&, DmStats*) {
-    throw std::logic_error("mesh_regions: not written yet");
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+constexpr std::size_t kMaxRounds = 8;
+/// Rounds (0-based) in which refinement runs; later re-meshes keep the refined vertex set but
+/// insert no Steiner points, so the conformity loop terminates.
+constexpr std::size_t kRefineRounds = 4;
+
+// ---------------------------------------------------------------------------------------------
+// CGAL types
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point2 = K::Point_2;
+
+/// Id of the vertex in the region's RegionState, kNone for vertices CGAL created.
+struct VInfo {
+    std::uint32_t id = kNone;
+};
+/// Flood-fill parity: -1 not reached, 0 outside, 1 inside.
+struct FInfo {
+    int parity = -1;
+};
+
+// Triangulation that inserts the constraints: exact crossings, input constraints kept.
+using Vb1 = CGAL::Triangulation_vertex_base_with_info_2<VInfo, K>;
+using Fb1i = CGAL::Triangulation_face_base_with_info_2<FInfo, K>;
+using Fb1 = CGAL::Constrained_triangulation_face_base_2<K, Fb1i>;
+using Tds1 = CGAL::Triangulation_data_structure_2<Vb1, Fb1>;
+using Cdt1Base = CGAL::Constrained_Delaunay_triangulation_2<K, Tds1, CGAL::Exact_intersections_tag>;
+using Cdt1 = CGAL::Constrained_triangulation_plus_2<Cdt1Base>;
+
+// Triangulation that is refined: its constraints no longer cross (they are the edges of a Cdt1).
+using Vb2 = CGAL::Triangulation_vertex_base_with_info_2<VInfo, K, CGAL::Delaunay_mesh_vertex_base_2<K>>;
+using Fb2 = CGAL::Delaunay_mesh_face_base_2<K>;
+using Tds2 = CGAL::Triangulation_data_structure_2<Vb2, Fb2>;
+using Cdt2 = CGAL::Constrained_Delaunay_triangulation_2<K, Tds2, CGAL::Exact_predicates_tag>;
+using Criteria = CGAL::Delaunay_mesh_size_criteria_2<Cdt2>;
+using Mesher = CGAL::Delaunay_mesher_2<Cdt2, Criteria>;
+
+// ---------------------------------------------------------------------------------------------
+// Small geometry helpers
+
+struct Vec2 {
+    double x = 0.0, y = 0.0;
+};
+inline Vec2 operator-(Vec2 a, Vec2 b) { return {a.x - b.x, a.y - b.y}; }
+inline Vec2 operator+(Vec2 a, Vec2 b) { return {a.x + b.x, a.y + b.y}; }
+inline Vec2 operator*(double s, Vec2 a) { return {s * a.x, s * a.y}; }
+inline double dot2(Vec2 a, Vec2 b) { return a.x * b.x + a.y * b.y; }
+inline double cross2(Vec2 a, Vec2 b) { return a.x * b.y - a.y * b.x; }
+inline double len2(Vec2 a) { return std::sqrt(dot2(a, a)); }
+
+/// Exact key of a 3D position (-0 and +0 are the same point).
+struct PosKey {
+    std::uint64_t x, y, z;
+    bool operator==(const PosKey&) const = default;
+};
+PosKey key_of(const glm::dvec3& p) {
+    return {std::bit_cast<std::uint64_t>(p.x + 0.0), std::bit_cast<std::uint64_t>(p.y + 0.0),
+            std::bit_cast<std::uint64_t>(p.z + 0.0)};
 }
+struct PosKeyHash {
+    std::size_t operator()(const PosKey& k) const {
+        std::uint64_t h = k.x * 0x9E3779B97F4A7C15ull;
+        h ^= k.y + 0x7F4A7C159E3779B9ull + (h << 6) + (h >> 2);
+        h ^= k.z + 0x94D049BB133111EBull + (h << 6) + (h >> 2);
+        return static_cast<std::size_t>(h);
+    }
+};
+using PosSet = std::unordered_set<PosKey, PosKeyHash>;
+
+/// Parameter of the closest point of segment [a, b] to p, and the squared distance to it.
+std::pair<double, double> closest_on_segment(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b) {
+    const glm::dvec3 d = b - a;
+    const double dd = glm::dot(d, d);
+    double t = dd > 0.0 ? glm::dot(p - a, d) / dd : 0.0;
+    t = std::clamp(t, 0.0, 1.0);
+    const glm::dvec3 q = a + t * d;
+    return {t, glm::dot(p - q, p - q)};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bounding volume hierarchy over axis-aligned boxes (3D; 2D uses z = 0)
+
+struct Box {
+    glm::dvec3 lo{std::numeric_limits<double>::infinity()};
+    glm::dvec3 hi{-std::numeric_limits<double>::infinity()};
+    void add(const glm::dvec3& p) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    void add(const Box& b) {
+        lo = glm::min(lo, b.lo);
+        hi = glm::max(hi, b.hi);
+    }
+    void grow(double r) {
+        lo -= glm::dvec3(r);
+        hi += glm::dvec3(r);
+    }
+    bool overlaps(const Box& b) const {
+        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y && lo.z <= b.hi.z &&
+               b.lo.z <= hi.z;
+    }
+};
+
+class Bvh {
+public:
+    explicit Bvh(std::vector<Box> boxes) : m_boxes(std::move(boxes)) {
+        m_items.resize(m_boxes.size());
+        for (std::size_t i = 0; i < m_items.size(); ++i) m_items[i] = static_cast<std::uint32_t>(i);
+        if (!m_items.empty()) build(0, m_items.size());
+    }
+
+    /// Calls f(item) for every item whose box overlaps q.
+    template <class F>
+    void query(const Box& q, F&& f) const {
+        if (m_nodes.empty()) return;
+        std::uint32_t stack[64];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& n = m_nodes[stack[--top]];
+            if (!n.box.overlaps(q)) continue;
+            if (n.count > 0) {
+                for (std::uint32_t k = n.first; k < n.first + n.count; ++k)
+                    if (m_boxes[m_items[k]].overlaps(q)) f(m_items[k]);
+            } else {
+                stack[top++] = n.first;
+                stack[top++] = n.first + 1;
+            }
+        }
+    }
+
+private:
+    struct Node {
+        Box box;
+        std::uint32_t first = 0;  ///< first item (leaf) or first child (inner)
+        std::uint32_t count = 0;  ///< items in a leaf, 0 for an inner node
+    };
+
+    void build(std::size_t first, std::size_t last) {
+        // Build breadth-first with an explicit work list so children are adjacent
+        struct Work {
+            std::size_t node, first, last;
+        };
+        m_nodes.push_back({});
+        std::vector<Work> work{{0, first, last}};
+        while (!work.empty()) {
+            const Work w = work.back();
+            work.pop_back();
+            Box box, centres;
+            for (std::size_t k = w.first; k < w.last; ++k) {
+                box.add(m_boxes[m_items[k]]);
+                centres.add(0.5 * (m_boxes[m_items[k]].lo + m_boxes[m_items[k]].hi));
+            }
+            m_nodes[w.node].box = box;
+            const std::size_t n = w.last - w.first;
+            const glm::dvec3 ext = centres.hi - centres.lo;
+            if (n <= 4 || std::max({ext.x, ext.y, ext.z}) <= 0.0) {
+                m_nodes[w.node].first = static_cast<std::uint32_t>(w.first);
+                m_nodes[w.node].count = static_cast<std::uint32_t>(n);
+                continue;
+            }
+            const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
+            const std::size_t mid = w.first + n / 2;
+            std::nth_element(m_items.begin() + static_cast<std::ptrdiff_t>(w.first),
+                             m_items.begin() + static_cast<std::ptrdiff_t>(mid),
+                             m_items.begin() + static_cast<std::ptrdiff_t>(w.last),
+                             [&](std::uint32_t a, std::uint32_t b) {
+                                 return m_boxes[a].lo[axis] + m_boxes[a].hi[axis] <
+                                        m_boxes[b].lo[axis] + m_boxes[b].hi[axis];
+                             });
+            const std::size_t child = m_nodes.size();
+            m_nodes.push_back({});
+            m_nodes.push_back({});
+            m_nodes[w.node].first = static_cast<std::uint32_t>(child);
+            m_nodes[w.node].count = 0;
+            work.push_back({child, w.first, mid});
+            work.push_back({child + 1, mid, w.last});
+        }
+    }
+
+    std::vector<Box> m_boxes;
+    std::vector<std::uint32_t> m_items;
+    std::vector<Node> m_nodes;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Per-region data
+
+/// Orthonormal frame of a region's plane; (u, v, n) is right-handed.
+struct Frame {
+    glm::dvec3 o{0.0}, u{0.0}, v{0.0}, n{0.0};
+    Vec2 project(const glm::dvec3& p) const { return {glm::dot(p - o, u), glm::dot(p - o, v)}; }
+    glm::dvec3 lift(double x, double y) const { return o + x * u + y * v; }
+};
+
+Frame make_frame(const glm::dvec3& normal, const glm::dvec3& origin) {
+    Frame f;
+    f.n = glm::normalize(normal);
+    const glm::dvec3 a = glm::abs(f.n);
+    // Axis least aligned with n gives a well-conditioned cross product
+    const glm::dvec3 axis = a.x <= a.y && a.x <= a.z ? glm::dvec3(1, 0, 0)
+                            : a.y <= a.z             ? glm::dvec3(0, 1, 0)
+                                                     : glm::dvec3(0, 0, 1);
+    f.u = glm::normalize(glm::cross(axis, f.n));
+    f.v = glm::cross(f.n, f.u);
+    f.o = origin;
+    return f;
+}
+
+/// A vertex of a region's meshing input: 2D position in the frame, exact 3D position, source.
+struct Vtx {
+    Vec2 p;
+    glm::dvec3 pos{0.0};
+    std::uint32_t source = kNewVertex;
+};
+
+/// What a region is meshed from. Round 0 builds it from the input; later rounds from the
+/// previous output (whose constraints no longer cross), plus split points from neighbours.
+struct RegionState {
+    std::vector<Vtx> verts;
+    std::vector<std::uint32_t> input_id;                  ///< input vertex -> verts index
+    std::vector<std::array<std::uint32_t, 2>> segments;  ///< non-boundary constraints
+    std::vector<std::vector<std::uint32_t>> edge_splits;  ///< per boundary edge: verts on it
+};
+
+struct RegionSetup {
+    Frame frame;
+    std::vector<std::array<std::uint32_t, 2>> boundary;  ///< input vertex pairs used an odd number of times
+};
+
+struct LocalStats {
+    std::size_t dropped = 0, merged = 0;
+};
+
+struct MeshRun {
+    MeshedRegion out;
+    RegionState next;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Triangulation
+
+/// Spatially coherent insertion order (Morton order of quantised coordinates).
+std::vector<std::uint32_t> insertion_order(const std::vector<Vtx>& verts) {
+    Box b;
+    for (const Vtx& v : verts) b.add(glm::dvec3(v.p.x, v.p.y, 0.0));
+    const double ex = std::max(b.hi.x - b.lo.x, b.hi.y - b.lo.y);
+    const double s = ex > 0.0 ? 65535.0 / ex : 0.0;
+    auto spread = [](std::uint32_t x) {
+        x &= 0xFFFFu;
+        x = (x | (x << 8)) & 0x00FF00FFu;
+        x = (x | (x << 4)) & 0x0F0F0F0Fu;
+        x = (x | (x << 2)) & 0x33333333u;
+        x = (x | (x << 1)) & 0x55555555u;
+        return x;
+    };
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> keyed(verts.size());
+    for (std::size_t i = 0; i < verts.size(); ++i) {
+        const auto qx = static_cast<std::uint32_t>(std::clamp((verts[i].p.x - b.lo.x) * s, 0.0, 65535.0));
+        const auto qy = static_cast<std::uint32_t>(std::clamp((verts[i].p.y - b.lo.y) * s, 0.0, 65535.0));
+        keyed[i] = {spread(qx) | (spread(qy) << 1), static_cast<std::uint32_t>(i)};
+    }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::uint32_t> order(verts.size());
+    for (std::size_t i = 0; i < keyed.size(); ++i) order[i] = keyed[i].second;
+    return order;
+}
+
+/// Builds the output and the next state from a triangulation whose inside faces are known.
+/// chains[e] = vertex chain of boundary edge e from its first to its last endpoint.
+template <class Cdt, class InDomain, class IsSegment>
+MeshRun collect(const Cdt& cdt, const Frame& frame, const RegionState& in,
+                const std::vector<typename Cdt::Vertex_handle>& vh,
+                const std::vector<std::vector<typename Cdt::Vertex_handle>>& chains, InDomain in_domain,
+                IsSegment is_segment) {
+    using Vh = typename Cdt::Vertex_handle;
+    MeshRun run;
+    std::unordered_map<Vh, std::uint32_t> new_id;
+    auto id_of = [&](Vh v) {
+        auto [it, fresh] = new_id.try_emplace(v, static_cast<std::uint32_t>(run.next.verts.size()));
+        if (fresh) {
+            Vtx x;
+            x.p = {v->point().x(), v->point().y()};
+            if (v->info().id != kNone) {
+                x.pos = in.verts[v->info().id].pos;
+                x.source = in.verts[v->info().id].source;
+            } else {
+                x.pos = frame.lift(x.p.x, x.p.y);
+            }
+            run.next.verts.push_back(x);
+        }
+        return it->second;
+    };
+
+    // Inside faces, counter-clockwise in the frame = counter-clockwise seen from the normal
+    for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+        if (!in_domain(f)) continue;
+        run.out.triangles.push_back(glm::u32vec3(id_of(f->vertex(0)), id_of(f->vertex(1)), id_of(f->vertex(2))));
+    }
+    // Every input vertex is kept, even one no inside face uses
+    run.next.input_id.resize(in.input_id.size());
+    for (std::size_t i = 0; i < in.input_id.size(); ++i) run.next.input_id[i] = id_of(vh[in.input_id[i]]);
+
+    // Constraints that are not part of the boundary, between kept vertices
+    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
+        if (!cdt.is_constrained(*e) || !is_segment(*e)) continue;
+        const Vh a = e->first->vertex(cdt.cw(e->second)), b = e->first->vertex(cdt.ccw(e->second));
+        auto ia = new_id.find(a), ib = new_id.find(b);
+        if (ia != new_id.end() && ib != new_id.end()) run.next.segments.push_back({ia->second, ib->second});
+    }
+    run.next.edge_splits.resize(chains.size());
+    for (std::size_t e = 0; e < chains.size(); ++e) {
+        for (std::size_t k = 1; k + 1 < chains[e].size(); ++k) run.next.edge_splits[e].push_back(id_of(chains[e][k]));
+    }
+
+    run.out.positions.reserve(run.next.verts.size());
+    run.out.source_vertex.reserve(run.next.verts.size());
+    for (const Vtx& x : run.next.verts) {
+        run.out.positions.push_back(x.pos);
+        run.out.source_vertex.push_back(x.source);
+    }
+    return run;
+}
+
+/// Walks the constrained edges of cdt from a to b (along the straight segment a-b).
+std::vector<Cdt2::Vertex_handle> walk_constrained(const Cdt2& cdt, Cdt2::Vertex_handle a, Cdt2::Vertex_handle b) {
+    std::vector<Cdt2::Vertex_handle> path{a};
+    const Vec2 pa{a->point().x(), a->point().y()}, pb{b->point().x(), b->point().y()};
+    const Vec2 d = pb - pa;
+    const double dd = dot2(d, d);
+    Cdt2::Vertex_handle cur = a;
+    double t_cur = 0.0;
+    for (std::size_t guard = 0; cur != b && guard < 1000000; ++guard) {
+        Cdt2::Vertex_handle best;
+        double best_sin = std::numeric_limits<double>::infinity(), best_t = 0.0;
+        auto ec = cdt.incident_edges(cur), done = ec;
+        do {
+            if (cdt.is_infinite(*ec) || !cdt.is_constrained(*ec)) continue;
+            Cdt2::Vertex_handle w = ec->first->vertex(cdt.cw(ec->second));
+            if (w == cur) w = ec->first->vertex(cdt.ccw(ec->second));
+            if (w == b) {
+                best = b;
+                break;
+            }
+            const Vec2 pw{w->point().x(), w->point().y()};
+            const double t = dot2(pw - pa, d) / dd;
+            if (t <= t_cur || t >= 1.0) continue;
+            const Vec2 step = pw - Vec2{cur->point().x(), cur->point().y()};
+            const double s = std::abs(cross2(step, d)) / (len2(step) * std::sqrt(dd));
+            if (s < best_sin) {
+                best_sin = s;
+                best = w;
+                best_t = t;
+            }
+        } while (++ec != done);
+        if (best == Cdt2::Vertex_handle()) break;  // should not happen: constraints are kept
+        path.push_back(best);
+        cur = best;
+        t_cur = best_t;
+    }
+    if (path.back() != b) path = {a, b};
+    return path;
+}
+
+/// Triangulates one region from its state; refines when min_angle_deg > 0.
+MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_angle_deg) {
+    const Frame& frame = setup.frame;
+    Cdt1 cdt;
+
+    // Insert the vertices (all input vertices stay vertices)
+    std::vector<Cdt1::Vertex_handle> vh(in.verts.size());
+    Cdt1::Face_handle hint;
+    for (std::uint32_t i : insertion_order(in.verts)) {
+        vh[i] = cdt.insert(Point2(in.verts[i].p.x, in.verts[i].p.y), hint);
+        hint = vh[i]->face();
+        // A duplicate 2D point keeps the first id, preferring an input vertex
+        if (vh[i]->info().id == kNone ||
+            (in.verts[vh[i]->info().id].source == kNewVertex && in.verts[i].source != kNewVertex))
+            vh[i]->info().id = i;
+    }
+
+    // Insert the boundary as polylines through their split points; remember the constraint ids
+    std::unordered_set<const void*> boundary_ids;
+    std::vector<std::vector<Cdt1::Constraint_id>> pieces(setup.boundary.size());
+    for (std::size_t e = 0; e < setup.boundary.size(); ++e) {
+        const std::uint32_t a = in.input_id[setup.boundary[e][0]], b = in.input_id[setup.boundary[e][1]];
+        const Vec2 pa = in.verts[a].p, d = in.verts[b].p - pa;
+        std::vector<std::pair<double, std::uint32_t>> line;
+        for (std::uint32_t s : in.edge_splits[e]) line.push_back({dot2(in.verts[s].p - pa, d), s});
+        std::sort(line.begin(), line.end());
+        Cdt1::Vertex_handle prev = vh[a];
+        auto add_piece = [&](Cdt1::Vertex_handle next) {
+            if (next == prev) return;
+            const Cdt1::Constraint_id cid = cdt.insert_constraint(prev, next);
+            boundary_ids.insert(cid.vl_ptr());
+            pieces[e].push_back(cid);
+            prev = next;
+        };
+        for (const auto& [t, s] : line) add_piece(vh[s]);
+        add_piece(vh[b]);
+    }
+    // Insert the shadow edges (they may cross each other: exact intersections)
+    for (const auto& s : in.segments)
+        if (vh[s[0]] != vh[s[1]]) cdt.insert_constraint(vh[s[0]], vh[s[1]]);
+
+    // Count boundary constraints enclosing an edge: odd = the edge separates inside from outside
+    auto toggles = [&](Cdt1::Face_handle f, int i) {
+        if (!f->is_constrained(i)) return false;
+        const auto va = f->vertex(cdt.cw(i)), vb = f->vertex(cdt.ccw(i));
+        std::size_t n = 0;
+        for (auto c = cdt.contexts_begin(va, vb); c != cdt.contexts_end(va, vb); ++c)
+            n += boundary_ids.count(c->id().vl_ptr());
+        return n % 2 == 1;
+    };
+    auto is_segment = [&](const Cdt1::Edge& e) {
+        const auto va = e.first->vertex(cdt.cw(e.second)), vb = e.first->vertex(cdt.ccw(e.second));
+        for (auto c = cdt.contexts_begin(va, vb); c != cdt.contexts_end(va, vb); ++c)
+            if (boundary_ids.count(c->id().vl_ptr()) == 0) return true;
+        return false;
+    };
+
+    // Flood-fill parity from the infinite faces
+    if (cdt.dimension() == 2) {
+        std::vector<Cdt1::Face_handle> queue;
+        auto fc = cdt.incident_faces(cdt.infinite_vertex()), done = fc;
+        do {
+            fc->info().parity = 0;
+            queue.push_back(fc);
+        } while (++fc != done);
+        while (!queue.empty()) {
+            const Cdt1::Face_handle f = queue.back();
+            queue.pop_back();
+            for (int i = 0; i < 3; ++i) {
+                const Cdt1::Face_handle g = f->neighbor(i);
+                if (g->info().parity >= 0) continue;
+                g->info().parity = f->info().parity ^ (toggles(f, i) ? 1 : 0);
+                queue.push_back(g);
+            }
+        }
+    }
+
+    // Boundary chains (vertices along each boundary edge, crossings included)
+    std::vector<std::vector<Cdt1::Vertex_handle>> chains(setup.boundary.size());
+    for (std::size_t e = 0; e < setup.boundary.size(); ++e) {
+        chains[e].push_back(vh[in.input_id[setup.boundary[e][0]]]);
+        for (const auto& cid : pieces[e])
+            for (auto v : cdt.vertices_in_constraint(cid))
+                if (v != chains[e].back()) chains[e].push_back(v);
+    }
+
+    if (!(min_angle_deg > 0.0) || cdt.dimension() < 2) {
+        return collect(
+            cdt, frame, in, vh, chains, [](Cdt1::Face_handle f) { return f->info().parity == 1; }, is_segment);
+    }
+
+    // Refinement: copy vertices and constrained edges into a CDT the mesher accepts
+    Cdt2 cdt2;
+    std::unordered_map<Cdt1::Vertex_handle, Cdt2::Vertex_handle> to2;
+    Cdt2::Face_handle hint2;
+    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
+        const Cdt2::Vertex_handle w = cdt2.insert(v->point(), hint2);
+        w->info() = v->info();
+        hint2 = w->face();
+        to2.emplace(v, w);
+    }
+    std::set<std::pair<Cdt2::Vertex_handle, Cdt2::Vertex_handle>> toggle_edges, segment_edges;
+    auto edge_key = [](Cdt2::Vertex_handle a, Cdt2::Vertex_handle b) { return a < b ? std::pair(a, b) : std::pair(b, a); };
+    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
+        if (!cdt.is_constrained(*e)) continue;
+        const auto a = to2.at(e->first->vertex(cdt.cw(e->second))), b = to2.at(e->first->vertex(cdt.ccw(e->second)));
+        cdt2.insert_constraint(a, b);
+        if (toggles(e->first, e->second)) toggle_edges.insert(edge_key(a, b));
+    }
+    // Mark the inside faces by the same parity rule
+    for (auto f = cdt2.all_faces_begin(); f != cdt2.all_faces_end(); ++f) f->set_in_domain(false);
+    {
+        std::vector<std::pair<Cdt2::Face_handle, bool>> queue;
+        std::unordered_set<Cdt2::Face_handle> seen;
+        auto fc = cdt2.incident_faces(cdt2.infinite_vertex()), done = fc;
+        do {
+            seen.insert(fc);
+            queue.push_back({fc, false});
+        } while (++fc != done);
+        while (!queue.empty()) {
+            const auto [f, inside] = queue.back();
+            queue.pop_back();
+            f->set_in_domain(inside);
+            for (int i = 0; i < 3; ++i) {
+                const Cdt2::Face_handle g = f->neighbor(i);
+                if (!seen.insert(g).second) continue;
+                bool t = false;
+                if (f->is_constrained(i))
+                    t = toggle_edges.count(edge_key(f->vertex(cdt2.cw(i)), f->vertex(cdt2.ccw(i)))) > 0;
+                queue.push_back({g, inside != t});
+            }
+        }
+    }
+    const double s = std::sin(min_angle_deg * 3.14159265358979323846 / 180.0);
+    Mesher mesher(cdt2, Criteria(s * s, 0.0));
+    mesher.init(true);
+    mesher.refine_mesh();
+
+    // Boundary chains in the refined triangulation (refinement splits constrained edges)
+    std::vector<std::vector<Cdt2::Vertex_handle>> chains2(chains.size());
+    std::set<std::pair<Cdt2::Vertex_handle, Cdt2::Vertex_handle>> boundary_edges;
+    for (std::size_t e = 0; e < chains.size(); ++e) {
+        chains2[e].push_back(to2.at(chains[e].front()));
+        for (std::size_t k = 1; k < chains[e].size(); ++k) {
+            const auto path = walk_constrained(cdt2, to2.at(chains[e][k - 1]), to2.at(chains[e][k]));
+            for (std::size_t j = 1; j < path.size(); ++j) {
+                boundary_edges.insert(edge_key(path[j - 1], path[j]));
+                chains2[e].push_back(path[j]);
+            }
+        }
+    }
+    std::vector<Cdt2::Vertex_handle> vh2(vh.size());
+    for (std::size_t i = 0; i < vh.size(); ++i) vh2[i] = to2.at(vh[i]);
+    return collect(
+        cdt2, frame, in, vh2, chains2, [](Cdt2::Face_handle f) { return f->is_in_domain(); },
+        [&](const Cdt2::Edge& e) {
+            return boundary_edges.count(edge_key(e.first->vertex(cdt2.cw(e.second)),
+                                                 e.first->vertex(cdt2.ccw(e.second)))) == 0;
+        });
+}
+
+// ---------------------------------------------------------------------------------------------
+// Round 0: the meshing input of a region from the PlanarRegion
+
+/// Uniform grid hash over 2D points, cell = merge distance.
+class PointGrid {
+public:
+    explicit PointGrid(double cell) : m_inv(1.0 / cell) {}
+    void add(Vec2 p, std::uint32_t id) { m_cells[key(cell_of(p.x), cell_of(p.y))].push_back(id); }
+    template <class F>
+    void near(Vec2 p, F&& f) const {
+        const std::int64_t cx = cell_of(p.x), cy = cell_of(p.y);
+        for (std::int64_t dx = -1; dx <= 1; ++dx)
+            for (std::int64_t dy = -1; dy <= 1; ++dy) {
+                auto it = m_cells.find(key(cx + dx, cy + dy));
+                if (it != m_cells.end())
+                    for (std::uint32_t id : it->second) f(id);
+            }
+    }
+
+private:
+    std::int64_t cell_of(double x) const { return static_cast<std::int64_t>(std::floor(x * m_inv)); }
+    static std::uint64_t key(std::int64_t x, std::int64_t y) {
+        return static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(y);
+    }
+    double m_inv;
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> m_cells;
+};
+
+/// A split point found on a boundary edge of a region by the global search.
+struct SplitHit {
+    std::uint32_t edge;
+    glm::dvec3 pos;
+};
+
+RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, const std::vector<SplitHit>& hits,
+                          double h, LocalStats& stats, PosSet& announced) {
+    const Frame& frame = setup.frame;
+    RegionState st;
+    st.edge_splits.resize(setup.boundary.size());
+    std::unordered_map<PosKey, std::uint32_t, PosKeyHash> by_pos;
+
+    // Input vertices
+    Box bounds;
+    for (std::size_t i = 0; i < region.positions.size(); ++i) {
+        Vtx x{frame.project(region.positions[i]), region.positions[i], static_cast<std::uint32_t>(i)};
+        st.input_id.push_back(static_cast<std::uint32_t>(st.verts.size()));
+        by_pos.try_emplace(key_of(x.pos), static_cast<std::uint32_t>(st.verts.size()));
+        bounds.add(glm::dvec3(x.p.x, x.p.y, 0.0));
+        st.verts.push_back(x);
+    }
+    const double scale = std::max(1e-300, glm::length(bounds.hi - bounds.lo));
+    const double cell = std::max(h, 1e-12 * scale);
+
+    // Split points from vertices of any region that lie on the boundary edges
+    auto add_split = [&](std::uint32_t e, std::uint32_t id) {
+        auto& s = st.edge_splits[e];
+        if (std::find(s.begin(), s.end(), id) == s.end()) s.push_back(id);
+    };
+    for (const SplitHit& hit : hits) {
+        auto [it, fresh] = by_pos.try_emplace(key_of(hit.pos), static_cast<std::uint32_t>(st.verts.size()));
+        if (fresh) st.verts.push_back({frame.project(hit.pos), hit.pos, kNewVertex});
+        add_split(hit.edge, it->second);
+    }
+    for (const Vtx& x : st.verts) announced.insert(key_of(x.pos));
+
+    PointGrid grid(cell);
+    for (std::size_t i = 0; i < st.verts.size(); ++i) grid.add(st.verts[i].p, static_cast<std::uint32_t>(i));
+
+    // 2D boundary edges and triangles, for snapping and clipping
+    std::vector<Box> edge_boxes, tri_boxes;
+    for (const auto& e : setup.boundary) {
+        Box b;
+        for (std::uint32_t k : e) b.add(glm::dvec3(st.verts[st.input_id[k]].p.x, st.verts[st.input_id[k]].p.y, 0.0));
+        b.grow(h);
+        edge_boxes.push_back(b);
+    }
+    for (const auto& t : region.triangles) {
+        Box b;
+        for (int k = 0; k < 3; ++k) b.add(glm::dvec3(st.verts[t[k]].p.x, st.verts[t[k]].p.y, 0.0));
+        b.grow(h);
+        tri_boxes.push_back(b);
+    }
+    const Bvh edge_bvh(std::move(edge_boxes)), tri_bvh(std::move(tri_boxes));
+    auto box_around = [](Vec2 a, Vec2 b, double r) {
+        Box q;
+        q.add(glm::dvec3(a.x, a.y, 0.0));
+        q.add(glm::dvec3(b.x, b.y, 0.0));
+        q.grow(r);
+        return q;
+    };
+
+    // Snap a 2D point to a vertex, else onto boundary edges, else make a free vertex
+    auto snap = [&](Vec2 p) -> std::uint32_t {
+        std::uint32_t best = kNone;
+        double best_d = h;
+        grid.near(p, [&](std::uint32_t id) {
+            const double d = len2(st.verts[id].p - p);
+            if (d <= best_d) {
+                best_d = d;
+                best = id;
+            }
+        });
+        if (best != kNone) {
+            ++stats.merged;
+            return best;
+        }
+        std::vector<std::uint32_t> on_edges;
+        std::uint32_t nearest = kNone;
+        double nearest_d = h, nearest_t = 0.0;
+        edge_bvh.query(box_around(p, p, 0.0), [&](std::uint32_t e) {
+            const Vec2 a = st.verts[st.input_id[setup.boundary[e][0]]].p;
+            const Vec2 d = st.verts[st.input_id[setup.boundary[e][1]]].p - a;
+            const double dd = dot2(d, d);
+            if (!(dd > 0.0)) return;
+            const double t = std::clamp(dot2(p - a, d) / dd, 0.0, 1.0);
+            const double dist = len2(a + t * d - p);
+            if (dist > h) return;
+            on_edges.push_back(e);
+            if (dist <= nearest_d) {
+                nearest_d = dist;
+                nearest = e;
+                nearest_t = t;
+            }
+        });
+        const auto id = static_cast<std::uint32_t>(st.verts.size());
+        if (nearest != kNone) {
+            const std::uint32_t ia = st.input_id[setup.boundary[nearest][0]];
+            const std::uint32_t ib = st.input_id[setup.boundary[nearest][1]];
+            const Vec2 q = st.verts[ia].p + nearest_t * (st.verts[ib].p - st.verts[ia].p);
+            const glm::dvec3 pos = st.verts[ia].pos + nearest_t * (st.verts[ib].pos - st.verts[ia].pos);
+            st.verts.push_back({q, pos, kNewVertex});
+            for (std::uint32_t e : on_edges) add_split(e, id);
+            ++stats.merged;
+        } else {
+            st.verts.push_back({p, frame.lift(p.x, p.y), kNewVertex});
+        }
+        grid.add(st.verts.back().p, id);
+        return id;
+    };
+
+    // Edge functions of a 2D input triangle, counter-clockwise, widened by h
+    auto tri_corners = [&](std::size_t t, Vec2 (&c)[3]) {
+        for (int k = 0; k < 3; ++k) c[k] = st.verts[region.triangles[t][k]].p;
+        const double area = cross2(c[1] - c[0], c[2] - c[0]);
+        if (area < 0.0) std::swap(c[1], c[2]);
+        return area != 0.0;
+    };
+
+    // Shadow edges: clip to the union of the input triangles, snap the ends
+    std::set<std::pair<std::uint32_t, std::uint32_t>> seen_segments;
+    for (const auto& seg : region.constraints) {
+        const Vec2 a = frame.project(seg[0]), b = frame.project(seg[1]);
+        const Vec2 d = b - a;
+        const double len = len2(d);
+        bool kept = false;
+        if (std::isfinite(len) && len > h) {
+            std::vector<std::pair<double, double>> spans;
+            tri_bvh.query(box_around(a, b, h), [&](std::uint32_t t) {
+                Vec2 c[3];
+                if (!tri_corners(t, c)) return;
+                double t0 = 0.0, t1 = 1.0;
+                for (int k = 0; k < 3 && t0 < t1; ++k) {
+                    const Vec2 edge = c[(k + 1) % 3] - c[k];
+                    const double f0 = cross2(edge, a - c[k]) + h * len2(edge);
+                    const double f1 = cross2(edge, d);
+                    if (f1 == 0.0) {
+                        if (f0 < 0.0) t1 = -1.0;
+                    } else if (f1 > 0.0) {
+                        t0 = std::max(t0, -f0 / f1);
+                    } else {
+                        t1 = std::min(t1, -f0 / f1);
+                    }
+                }
+                if (t0 < t1) spans.push_back({t0, t1});
+            });
+            std::sort(spans.begin(), spans.end());
+            const double gap = h / len;
+            std::vector<std::pair<double, double>> merged_spans;
+            for (const auto& s : spans) {
+                if (!merged_spans.empty() && s.first <= merged_spans.back().second + gap)
+                    merged_spans.back().second = std::max(merged_spans.back().second, s.second);
+                else
+                    merged_spans.push_back(s);
+            }
+            for (const auto& [t0, t1] : merged_spans) {
+                if ((t1 - t0) * len <= h) continue;
+                const std::uint32_t v0 = snap(a + t0 * d), v1 = snap(a + t1 * d);
+                if (v0 == v1 || len2(st.verts[v1].p - st.verts[v0].p) < h) continue;
+                if (!seen_segments.insert({std::min(v0, v1), std::max(v0, v1)}).second) {
+                    kept = true;
+                    continue;
+                }
+                st.segments.push_back({v0, v1});
+                kept = true;
+            }
+        }
+        if (!kept) ++stats.dropped;
+    }
+
+    // Points: kept if inside an input triangle (within h)
+    for (const glm::dvec3& p3 : region.points) {
+        const Vec2 p = frame.project(p3);
+        if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+        bool inside = false;
+        tri_bvh.query(box_around(p, p, 0.0), [&](std::uint32_t t) {
+            Vec2 c[3];
+            if (inside || !tri_corners(t, c)) return;
+            bool in = true;
+            for (int k = 0; k < 3 && in; ++k) {
+                const Vec2 edge = c[(k + 1) % 3] - c[k];
+                in = cross2(edge, p - c[k]) >= -h * len2(edge);
+            }
+            inside = in;
+        });
+        if (inside) snap(p);
+    }
+
+    // Route each segment through the vertices within h of its interior: a constraint passing a
+    // vertex at 1e-17 would otherwise leave a zero-area sliver with that vertex on its edge
+    std::vector<Box> vertex_boxes(st.verts.size());
+    for (std::size_t i = 0; i < st.verts.size(); ++i) vertex_boxes[i].add(glm::dvec3(st.verts[i].p.x, st.verts[i].p.y, 0.0));
+    const Bvh vertex_bvh(std::move(vertex_boxes));
+    std::vector<std::array<std::uint32_t, 2>> routed;
+    seen_segments.clear();
+    auto add_piece = [&](std::uint32_t v0, std::uint32_t v1) {
+        if (v0 != v1 && seen_segments.insert({std::min(v0, v1), std::max(v0, v1)}).second) routed.push_back({v0, v1});
+    };
+    for (const auto& [v0, v1] : st.segments) {
+        const Vec2 a = st.verts[v0].p, d = st.verts[v1].p - a;
+        const double dd = dot2(d, d);
+        const int chunks = static_cast<int>(std::clamp(std::sqrt(dd) / scale * 64.0, 1.0, 256.0));
+        std::vector<std::pair<double, std::uint32_t>> on;
+        for (int c = 0; c < chunks; ++c) {
+            const Vec2 c0 = a + (double(c) / chunks) * d, c1 = a + (double(c + 1) / chunks) * d;
+            vertex_bvh.query(box_around(c0, c1, h), [&](std::uint32_t id) {
+                if (id == v0 || id == v1) return;
+                const double t = dot2(st.verts[id].p - a, d) / dd;
+                if (t > 0.0 && t < 1.0 && len2(a + t * d - st.verts[id].p) <= h) on.push_back({t, id});
+            });
+        }
+        std::sort(on.begin(), on.end());
+        std::uint32_t prev = v0;
+        for (const auto& [t, id] : on) {
+            if (id == prev) continue;
+            add_piece(prev, id);
+            prev = id;
+        }
+        add_piece(prev, v1);
+    }
+    st.segments = std::move(routed);
+    return st;
+}
+
+}  // namespace
+
+std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, const DmOptions& options,
+                                       DmStats* stats) {
+    // Check the options and the regions
+    if (!(options.min_angle_deg >= 0.0 && options.min_angle_deg <= 20.7))
+        throw std::invalid_argument("mesh_regions: min_angle_deg " + std::to_string(options.min_angle_deg) +
+                                    " is outside [0, 20.7]");
+    if (!(options.merge_distance >= 0.0) || !std::isfinite(options.merge_distance))
+        throw std::invalid_argument("mesh_regions: merge_distance " + std::to_string(options.merge_distance) +
+                                    " must be finite and >= 0");
+    const double h = options.merge_distance;
+    DmStats total;
+    const std::size_t n = regions.size();
+    std::vector<RegionSetup> setups(n);
+    for (std::size_t r = 0; r < n; ++r) {
+        const PlanarRegion& region = regions[r];
+        const std::string where = "mesh_regions: region " + std::to_string(r);
+        const double nl = glm::length(region.normal);
+        if (!std::isfinite(nl) || !(nl > 0.0)) throw std::invalid_argument(where + ": zero or non-finite normal");
+        for (const glm::dvec3& p : region.positions)
+            if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+                throw std::invalid_argument(where + ": non-finite vertex position");
+        for (const glm::u32vec3& t : region.triangles)
+            for (int k = 0; k < 3; ++k)
+                if (t[k] >= region.positions.size())
+                    throw std::invalid_argument(where + ": triangle index " + std::to_string(t[k]) + " out of range (" +
+                                                std::to_string(region.positions.size()) + " positions)");
+        total.triangles_in += region.triangles.size();
+        total.constraints_in += region.constraints.size();
+        if (region.triangles.empty()) continue;
+        setups[r].frame = make_frame(region.normal, region.positions[region.triangles[0][0]]);
+
+        // Boundary edges: triangle edges used an odd number of times
+        std::unordered_map<std::uint64_t, std::uint32_t> count;
+        for (const glm::u32vec3& t : region.triangles)
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+                if (a == b) continue;
+                ++count[(std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)];
+            }
+        for (const auto& [key, c] : count)
+            if (c % 2 == 1)
+                setups[r].boundary.push_back(
+                    {static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key & 0xFFFFFFFFu)});
+        std::sort(setups[r].boundary.begin(), setups[r].boundary.end());
+    }
+
+    // All boundary edges in 3D, for the point-on-another-region's-edge tests
+    struct EdgeRef {
+        std::uint32_t region, edge;
+    };
+    std::vector<EdgeRef> edges;
+    std::vector<Box> edge_boxes;
+    for (std::size_t r = 0; r < n; ++r)
+        for (std::size_t e = 0; e < setups[r].boundary.size(); ++e) {
+            Box b;
+            for (std::uint32_t k : setups[r].boundary[e]) b.add(regions[r].positions[k]);
+            b.grow(h);
+            edges.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(e)});
+            edge_boxes.push_back(b);
+        }
+    const Bvh edge_bvh(std::move(edge_boxes));
+    // Calls f(region, edge) for every boundary edge p lies on (within h, away from its ends)
+    auto edges_through = [&](const glm::dvec3& p, auto&& f) {
+        Box q;
+        q.add(p);
+        edge_bvh.query(q, [&](std::uint32_t k) {
+            const EdgeRef ref = edges[k];
+            const auto& be = setups[ref.region].boundary[ref.edge];
+            const glm::dvec3& a = regions[ref.region].positions[be[0]];
+            const glm::dvec3& b = regions[ref.region].positions[be[1]];
+            if (glm::distance(p, a) <= h || glm::distance(p, b) <= h || p == a || p == b) return;
+            if (closest_on_segment(p, a, b).second > h * h) return;
+            f(ref.region, ref.edge);
+        });
+    };
+
+    // Round 0 split points: input vertices (of any region) on boundary edges
+    std::vector<std::vector<SplitHit>> hits(n);
+    for (std::size_t s = 0; s < n; ++s) {
+        if (regions[s].triangles.empty()) continue;
+        for (const glm::dvec3& p : regions[s].positions)
+            edges_through(p, [&](std::uint32_t r, std::uint32_t e) { hits[r].push_back({e, p}); });
+    }
+
+    std::vector<RegionState> states(n);
+    std::vector<MeshedRegion> outputs(n);
+    std::vector<PosSet> announced(n);
+    std::vector<LocalStats> local(n);
+    std::vector<std::size_t> dirty;
+    for (std::size_t r = 0; r < n; ++r)
+        if (!regions[r].triangles.empty()) dirty.push_back(r);
+    std::vector<std::vector<SplitHit>> pending(n);
+    std::size_t round = 0;
+    for (; round < kMaxRounds && !dirty.empty(); ++round) {
+        const double angle = round < kRefineRounds ? options.min_angle_deg : 0.0;
+        tbb::parallel_for(std::size_t{0}, dirty.size(), [&](std::size_t k) {
+            const std::size_t r = dirty[k];
+            if (round == 0) {
+                states[r] = build_initial(regions[r], setups[r], hits[r], h, local[r], announced[r]);
+            } else {
+                // Add the neighbours' boundary vertices as split points
+                RegionState& st = states[r];
+                std::unordered_map<PosKey, std::uint32_t, PosKeyHash> by_pos;
+                for (std::size_t i = 0; i < st.verts.size(); ++i)
+                    by_pos.try_emplace(key_of(st.verts[i].pos), static_cast<std::uint32_t>(i));
+                for (const SplitHit& hit : pending[r]) {
+                    auto [it, fresh] = by_pos.try_emplace(key_of(hit.pos), static_cast<std::uint32_t>(st.verts.size()));
+                    if (fresh) st.verts.push_back({setups[r].frame.project(hit.pos), hit.pos, kNewVertex});
+                    const std::uint32_t id = it->second;
+                    auto& s = st.edge_splits[hit.edge];
+                    if (std::find(s.begin(), s.end(), id) == s.end()) s.push_back(id);
+                    announced[r].insert(key_of(hit.pos));
+                }
+                pending[r].clear();
+            }
+            MeshRun run = triangulate(setups[r], states[r], angle);
+            states[r] = std::move(run.next);
+            outputs[r] = std::move(run.out);
+        });
+
+        // Announce new boundary vertices to every boundary edge they lie on
+        std::vector<std::size_t> next_dirty;
+        std::vector<char> is_dirty(n, 0);
+        for (std::size_t r : dirty) {
+            const RegionState& st = states[r];
+            for (std::size_t e = 0; e < st.edge_splits.size(); ++e)
+                for (std::uint32_t id : st.edge_splits[e]) {
+                    const glm::dvec3 pos = st.verts[id].pos;
+                    if (!announced[r].insert(key_of(pos)).second) continue;
+                    edges_through(pos, [&](std::uint32_t r2, std::uint32_t e2) {
+                        if (r2 == r && e2 == e) return;
+                        const RegionState& other = states[r2];
+                        for (std::uint32_t j : other.edge_splits[e2])
+                            if (key_of(other.verts[j].pos) == key_of(pos)) return;
+                        pending[r2].push_back({e2, pos});
+                        ++total.conformity_points;
+                        if (!is_dirty[r2]) {
+                            is_dirty[r2] = 1;
+                            next_dirty.push_back(r2);
+                        }
+                    });
+                }
+        }
+        dirty = std::move(next_dirty);
+    }
+    total.rounds = round;
+
+    for (std::size_t r = 0; r < n; ++r) {
+        total.triangles_out += outputs[r].triangles.size();
+        total.constraints_dropped += local[r].dropped;
+        total.points_merged += local[r].merged;
+        // Round-0 split points that came from other regions' vertices are conformity points
+        PosSet own;
+        for (const glm::dvec3& p : regions[r].positions) own.insert(key_of(p));
+        for (const SplitHit& hit : hits[r]) total.conformity_points += own.count(key_of(hit.pos)) == 0 ? 1 : 0;
+    }
+    if (stats) *stats = total;
+    return outputs;
+}
+
 }  // namespace abrad::radiosity

@@ -1,2 +1,496 @@
-// PLACEHOLDER: being written.
+// Tests of the discontinuity mesher: constraints become edges, regions keep their area, and
+// neighbouring regions share every boundary vertex (no T-vertices).
+#include "abrad/radiosity/dm_mesh.h"
+
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <iomanip>
+#include <map>
+#include <random>
+#include <stdexcept>
+#include <unordered_map>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+namespace abrad::radiosity {
+namespace {
+
+using Outputs = std::vector<MeshedRegion>;
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// Region from positions and triangles; triangles are flipped to be CCW seen from the normal.
+PlanarRegion make_region(glm::dvec3 normal, std::vector<glm::dvec3> positions, std::vector<glm::u32vec3> tris) {
+    PlanarRegion r;
+    r.normal = normal;
+    r.positions = std::move(positions);
+    for (glm::u32vec3 t : tris) {
+        const glm::dvec3 c = glm::cross(r.positions[t[1]] - r.positions[t[0]], r.positions[t[2]] - r.positions[t[0]]);
+        if (glm::dot(c, normal) < 0.0) std::swap(t[1], t[2]);
+        r.triangles.push_back(t);
+    }
+    return r;
+}
+
+/// n x n grid of squares (2 triangles each) spanning origin + [0,1] a + [0,1] b.
+PlanarRegion make_grid(int n, glm::dvec3 origin, glm::dvec3 a, glm::dvec3 b, glm::dvec3 normal) {
+    std::vector<glm::dvec3> pos;
+    std::vector<glm::u32vec3> tris;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i)
+            pos.push_back(origin + (double(i) / n) * a + (double(j) / n) * b);
+    auto id = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            tris.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+            tris.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+        }
+    return make_region(normal, std::move(pos), std::move(tris));
+}
+
+PlanarRegion unit_square() { return make_grid(1, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}); }
+
+double tri_area(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    return 0.5 * glm::length(glm::cross(b - a, c - a));
+}
+double area_of(const std::vector<glm::dvec3>& pos, const std::vector<glm::u32vec3>& tris) {
+    double s = 0.0;
+    for (const auto& t : tris) s += tri_area(pos[t[0]], pos[t[1]], pos[t[2]]);
+    return s;
+}
+double area_in(const PlanarRegion& r) { return area_of(r.positions, r.triangles); }
+double area_out(const MeshedRegion& m) { return area_of(m.positions, m.triangles); }
+
+/// Every triangle is counter-clockwise seen from the normal and not degenerate.
+void expect_ccw(const MeshedRegion& m, glm::dvec3 normal) {
+    for (const auto& t : m.triangles) {
+        const glm::dvec3 c = glm::cross(m.positions[t[1]] - m.positions[t[0]], m.positions[t[2]] - m.positions[t[0]]);
+        ASSERT_GT(glm::dot(c, normal), 0.0);
+    }
+}
+
+/// Every input vertex is an output vertex at its exact position, with its source index.
+void expect_inputs_kept(const PlanarRegion& in, const MeshedRegion& m) {
+    ASSERT_EQ(m.positions.size(), m.source_vertex.size());
+    std::vector<int> seen(in.positions.size(), 0);
+    for (std::size_t k = 0; k < m.positions.size(); ++k) {
+        if (m.source_vertex[k] == kNewVertex) continue;
+        ASSERT_LT(m.source_vertex[k], in.positions.size());
+        EXPECT_EQ(m.positions[k], in.positions[m.source_vertex[k]]);
+        ++seen[m.source_vertex[k]];
+    }
+    for (std::size_t i = 0; i < seen.size(); ++i) EXPECT_EQ(seen[i], 1) << "input vertex " << i;
+}
+
+/// Vertices at distinct positions only.
+void expect_distinct(const MeshedRegion& m) {
+    std::map<std::array<double, 3>, int> count;
+    for (const auto& p : m.positions) {
+        const std::array<double, 3> key{p.x, p.y, p.z};
+        EXPECT_EQ(++count[key], 1);
+    }
+}
+
+/// No output vertex of any region lies strictly inside an output edge of any region.
+/// Returns the number of violations (grid hash over vertices, so it stays fast).
+std::size_t no_t_vertices_violations(const Outputs& outs, bool report = true, double eps = 1e-9) {
+    std::vector<glm::dvec3> all;
+    double edge_sum = 0.0;
+    std::size_t edge_count = 0;
+    for (const auto& m : outs) {
+        all.insert(all.end(), m.positions.begin(), m.positions.end());
+        for (const auto& t : m.triangles)
+            for (int k = 0; k < 3; ++k) {
+                edge_sum += glm::distance(m.positions[t[k]], m.positions[t[(k + 1) % 3]]);
+                ++edge_count;
+            }
+    }
+    if (edge_count == 0) return 0;
+    const double cell = 2.0 * edge_sum / double(edge_count);
+    auto cell_of = [cell](double x) { return static_cast<long long>(std::floor(x / cell)); };
+    std::map<std::array<long long, 3>, std::vector<std::size_t>> grid;
+    for (std::size_t i = 0; i < all.size(); ++i)
+        grid[{cell_of(all[i].x), cell_of(all[i].y), cell_of(all[i].z)}].push_back(i);
+    std::size_t bad = 0;
+    for (const auto& m : outs)
+        for (const auto& t : m.triangles)
+            for (int k = 0; k < 3; ++k) {
+                const glm::dvec3 a = m.positions[t[k]], b = m.positions[t[(k + 1) % 3]];
+                const glm::dvec3 lo = glm::min(a, b) - eps, hi = glm::max(a, b) + eps;
+                const glm::dvec3 d = b - a;
+                const double dd = glm::dot(d, d);
+                for (long long x = cell_of(lo.x); x <= cell_of(hi.x); ++x)
+                    for (long long y = cell_of(lo.y); y <= cell_of(hi.y); ++y)
+                        for (long long z = cell_of(lo.z); z <= cell_of(hi.z); ++z) {
+                            auto it = grid.find({x, y, z});
+                            if (it == grid.end()) continue;
+                            for (std::size_t i : it->second) {
+                                const double s = glm::dot(all[i] - a, d) / dd;
+                                if (s <= 1e-9 || s >= 1.0 - 1e-9) continue;
+                                if (glm::distance(a + s * d, all[i]) >= eps) continue;
+                                if (++bad <= 3 && report)
+                                    ADD_FAILURE() << std::setprecision(17) << "T-vertex (" << all[i].x << ", " << all[i].y << ", " << all[i].z
+                                                  << ") inside edge (" << a.x << ", " << a.y << ", " << a.z << ")-("
+                                                  << b.x << ", " << b.y << ", " << b.z << ") at distance "
+                                                  << glm::distance(a + s * d, all[i]);
+                            }
+                        }
+            }
+    return bad;
+}
+void expect_no_t_vertices(const Outputs& outs) { EXPECT_EQ(no_t_vertices_violations(outs), 0u); }
+
+/// The segment a-b is a union of output edges: edges lying on it add up to its length.
+void expect_segment_is_edges(const MeshedRegion& m, glm::dvec3 a, glm::dvec3 b, double tol = 1e-9) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, double> on;
+    const glm::dvec3 d = b - a;
+    auto on_line = [&](const glm::dvec3& p) {
+        const double s = glm::dot(p - a, d) / glm::dot(d, d);
+        return s > -1e-12 && s < 1.0 + 1e-12 && glm::distance(a + s * d, p) < tol;
+    };
+    for (const auto& t : m.triangles)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t i = t[k], j = t[(k + 1) % 3];
+            if (on_line(m.positions[i]) && on_line(m.positions[j]))
+                on[{std::min(i, j), std::max(i, j)}] = glm::distance(m.positions[i], m.positions[j]);
+        }
+    double sum = 0.0;
+    for (const auto& [e, l] : on) sum += l;
+    EXPECT_NEAR(sum, glm::length(d), 1e-9) << "segment is not a union of mesh edges";
+}
+
+bool has_vertex(const MeshedRegion& m, glm::dvec3 p, double tol) {
+    return std::any_of(m.positions.begin(), m.positions.end(),
+                       [&](const glm::dvec3& q) { return glm::distance(p, q) <= tol; });
+}
+
+double min_angle_deg(const MeshedRegion& m) {
+    double best = 180.0;
+    for (const auto& t : m.triangles)
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 a = m.positions[t[k]], b = m.positions[t[(k + 1) % 3]], c = m.positions[t[(k + 2) % 3]];
+            const double cs = glm::dot(glm::normalize(b - a), glm::normalize(c - a));
+            best = std::min(best, std::acos(std::clamp(cs, -1.0, 1.0)) * 180.0 / kPi);
+        }
+    return best;
+}
+
+void expect_common(const PlanarRegion& in, const MeshedRegion& m) {
+    EXPECT_NEAR(area_out(m), area_in(in), 1e-9 * area_in(in));
+    expect_ccw(m, in.normal);
+    expect_inputs_kept(in, m);
+    expect_distinct(m);
+}
+
+Outputs mesh(const std::vector<PlanarRegion>& regions, DmOptions opt = {}, DmStats* stats = nullptr) {
+    return mesh_regions(regions, opt, stats);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(DmMesh, DiagonalSegmentBecomesEdges) {
+    PlanarRegion r = unit_square();
+    const glm::dvec3 a{0.0, 0.25, 0.0}, b{1.0, 0.6, 0.0};
+    r.constraints.push_back({a, b});
+    const Outputs out = mesh({r});
+    ASSERT_EQ(out.size(), 1u);
+    expect_common(r, out[0]);
+    expect_segment_is_edges(out[0], a, b);
+    expect_no_t_vertices(out);
+    // The segment crosses the (not inserted) input diagonal without adding a vertex there
+    EXPECT_EQ(out[0].positions.size(), 6u);
+}
+
+TEST(DmMesh, CrossingSegmentsShareTheirCrossing) {
+    PlanarRegion r = unit_square();
+    const glm::dvec3 a{0.1, 0.2, 0}, b{0.9, 0.7, 0}, c{0.1, 0.8, 0}, d{0.8, 0.1, 0};
+    r.constraints = {{a, b}, {c, d}};
+    const Outputs out = mesh({r});
+    expect_common(r, out[0]);
+    // Crossing of a-b and c-d
+    const glm::dvec3 ab = b - a, cd = d - c;
+    const double s = ((c.x - a.x) * cd.y - (c.y - a.y) * cd.x) / (ab.x * cd.y - ab.y * cd.x);
+    const glm::dvec3 x = a + s * ab;
+    EXPECT_TRUE(has_vertex(out[0], x, 1e-12));
+    expect_segment_is_edges(out[0], a, b);
+    expect_segment_is_edges(out[0], c, d);
+    expect_no_t_vertices(out);
+}
+
+TEST(DmMesh, SegmentsOnBoundaryAndOnInputEdge) {
+    PlanarRegion r = unit_square();
+    r.constraints = {{glm::dvec3{0.2, 0, 0}, glm::dvec3{0.7, 0, 0}},   // on the bottom edge
+                     {glm::dvec3{0, 0, 0}, glm::dvec3{1, 1, 0}},       // on the input diagonal
+                     {glm::dvec3{1, 0.5, 0}, glm::dvec3{1.5, 0.5, 0}}};  // outside, touching
+    DmStats st;
+    const Outputs out = mesh({r}, {}, &st);
+    expect_common(r, out[0]);
+    expect_segment_is_edges(out[0], {0, 0, 0}, {1, 1, 0});
+    expect_segment_is_edges(out[0], {0.2, 0, 0}, {0.7, 0, 0});
+    for (const auto& p : out[0].positions) {
+        EXPECT_GE(p.x, 0.0);
+        EXPECT_LE(p.x, 1.0);
+        EXPECT_GE(p.y, 0.0);
+        EXPECT_LE(p.y, 1.0);
+    }
+    EXPECT_EQ(st.constraints_in, 3u);
+    EXPECT_EQ(st.constraints_dropped, 1u);
+    expect_no_t_vertices(out);
+}
+
+TEST(DmMesh, EndpointNearBoundaryIsSnappedOntoIt) {
+    PlanarRegion r = unit_square();
+    r.constraints = {{glm::dvec3{0.3, -1e-9, 0}, glm::dvec3{0.6, 0.5, 0}}};
+    DmStats st;
+    const Outputs out = mesh({r}, {}, &st);
+    expect_common(r, out[0]);
+    EXPECT_TRUE(has_vertex(out[0], {0.3, 0.0, 0.0}, 1e-12));
+    for (const auto& p : out[0].positions) EXPECT_GE(p.y, 0.0);
+    // No sliver between the snapped end and the boundary
+    for (const auto& t : out[0].triangles)
+        EXPECT_GT(tri_area(out[0].positions[t[0]], out[0].positions[t[1]], out[0].positions[t[2]]), 1e-4);
+    EXPECT_GE(st.points_merged, 1u);
+    expect_no_t_vertices(out);
+}
+
+TEST(DmMesh, NearDuplicateEndpointsAreMerged) {
+    PlanarRegion r = unit_square();
+    r.constraints = {{glm::dvec3{0.2, 0.2, 0}, glm::dvec3{0.5, 0.5, 0}},
+                     {glm::dvec3{0.5 + 1e-8, 0.5, 0}, glm::dvec3{0.8, 0.2, 0}}};
+    DmStats st;
+    const Outputs out = mesh({r}, {}, &st);
+    expect_common(r, out[0]);
+    const auto near = std::count_if(out[0].positions.begin(), out[0].positions.end(),
+                                    [](const glm::dvec3& p) { return glm::distance(p, {0.5, 0.5, 0}) < 1e-6; });
+    EXPECT_EQ(near, 1);
+    EXPECT_EQ(st.points_merged, 1u);
+    EXPECT_EQ(out[0].positions.size(), 7u);
+}
+
+TEST(DmMesh, HoleStaysEmpty) {
+    // Square ring [0,3]^2 minus [1,2]^2 made of 8 triangles
+    const std::vector<glm::dvec3> pos = {{0, 0, 0}, {3, 0, 0}, {3, 3, 0}, {0, 3, 0},
+                                         {1, 1, 0}, {2, 1, 0}, {2, 2, 0}, {1, 2, 0}};
+    std::vector<glm::u32vec3> tris;
+    for (std::uint32_t k = 0; k < 4; ++k) {
+        const std::uint32_t k1 = (k + 1) % 4;
+        tris.push_back({k, k1, 4 + k1});
+        tris.push_back({k, 4 + k1, 4 + k});
+    }
+    PlanarRegion r = make_region({0, 0, 1}, pos, tris);
+    r.constraints = {{glm::dvec3{0.5, 1.5, 0}, glm::dvec3{2.5, 1.5, 0}}};
+    r.points = {{1.5, 1.5, 0}, {0.5, 0.5, 0}};
+    ASSERT_NEAR(area_in(r), 8.0, 1e-12);
+    const Outputs out = mesh({r});
+    expect_common(r, out[0]);
+    for (const auto& t : out[0].triangles) {
+        const glm::dvec3 c = (out[0].positions[t[0]] + out[0].positions[t[1]] + out[0].positions[t[2]]) / 3.0;
+        EXPECT_FALSE(c.x > 1 && c.x < 2 && c.y > 1 && c.y < 2) << "triangle in the hole";
+    }
+    for (const auto& p : out[0].positions) EXPECT_FALSE(p.x > 1 && p.x < 2 && p.y > 1 && p.y < 2);
+    EXPECT_TRUE(has_vertex(out[0], {0.5, 0.5, 0}, 1e-12));
+    expect_segment_is_edges(out[0], {0.5, 1.5, 0}, {1, 1.5, 0});
+    expect_segment_is_edges(out[0], {2, 1.5, 0}, {2.5, 1.5, 0});
+    expect_no_t_vertices(out);
+}
+
+TEST(DmMesh, NonConvexLShape) {
+    // L = [0,2]x[0,1] + [0,1]x[1,2]
+    const std::vector<glm::dvec3> pos = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0},
+                                         {1, 1, 0}, {0, 1, 0}, {0, 2, 0}, {1, 2, 0}};
+    PlanarRegion r = make_region({0, 0, 1}, pos, {{0, 1, 4}, {0, 4, 5}, {1, 2, 3}, {1, 3, 4}, {5, 4, 7}, {5, 7, 6}});
+    r.constraints = {{glm::dvec3{0.5, 0.5, 0}, glm::dvec3{1.5, 1.5, 0}}, {glm::dvec3{1.5, 0.5, 0}, glm::dvec3{0.5, 1.7, 0}}};
+    const Outputs out = mesh({r});
+    expect_common(r, out[0]);
+    EXPECT_NEAR(area_out(out[0]), 3.0, 1e-12);
+    for (const auto& t : out[0].triangles) {
+        const glm::dvec3 c = (out[0].positions[t[0]] + out[0].positions[t[1]] + out[0].positions[t[2]]) / 3.0;
+        EXPECT_FALSE(c.x > 1 && c.y > 1) << "triangle in the notch";
+    }
+    for (const auto& p : out[0].positions) EXPECT_FALSE(p.x > 1 + 1e-12 && p.y > 1 + 1e-12);
+    expect_no_t_vertices(out);
+}
+
+TEST(DmMesh, InternalTJunction) {
+    // Rectangle [0,2]x[0,1] with vertex 2 at (1,0), over one triangle whose edge 0-1 spans it
+    const std::vector<glm::dvec3> pos = {{0, 0, 0}, {2, 0, 0}, {1, 0, 0}, {0, 1, 0}, {2, 1, 0}, {1, -1, 0}};
+    PlanarRegion r = make_region({0, 0, 1}, pos, {{0, 2, 3}, {2, 4, 3}, {2, 1, 4}, {0, 5, 1}});
+    r.constraints = {{glm::dvec3{0.5, -0.4, 0}, glm::dvec3{1.5, 0.6, 0}}};
+    const Outputs out = mesh({r});
+    expect_common(r, out[0]);
+    EXPECT_NEAR(area_out(out[0]), 3.0, 1e-12);
+    expect_no_t_vertices(out);
+    expect_segment_is_edges(out[0], {0.5, -0.4, 0}, {1.5, 0.6, 0});
+}
+
+/// Floor 10x10 in z = 0 and a wall of 2 triangles in y = 0 standing on the floor's edge.
+std::vector<PlanarRegion> floor_and_wall(int n = 10) {
+    PlanarRegion floor = make_grid(n, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1});
+    PlanarRegion wall = make_grid(1, {0, 0, 0}, {1, 0, 0}, {0, 0, 1}, {0, 1, 0});
+    return {floor, wall};
+}
+
+/// Every vertex of a on the segment p-q is a vertex of b at the identical position.
+void expect_shared_on_line(const MeshedRegion& a, const MeshedRegion& b, glm::dvec3 p, glm::dvec3 q) {
+    for (const auto& x : a.positions) {
+        const glm::dvec3 d = q - p;
+        const double s = glm::dot(x - p, d) / glm::dot(d, d);
+        if (s < 0 || s > 1 || glm::distance(p + s * d, x) > 1e-9) continue;
+        EXPECT_TRUE(std::find(b.positions.begin(), b.positions.end(), x) != b.positions.end())
+            << "vertex (" << x.x << ", " << x.y << ", " << x.z << ") missing";
+    }
+}
+
+TEST(DmMesh, NoTVerticesAcrossRegions) {
+    std::vector<PlanarRegion> regions = floor_and_wall();
+    const glm::dvec3 foot{0.37, 0, 0};
+    regions[1].constraints = {{foot, glm::dvec3{0.6, 0, 0.8}}};
+    DmStats st;
+    const Outputs out = mesh(regions, {}, &st);
+    ASSERT_EQ(out.size(), 2u);
+    expect_common(regions[0], out[0]);
+    expect_common(regions[1], out[1]);
+    expect_shared_on_line(out[0], out[1], {0, 0, 0}, {1, 0, 0});
+    expect_shared_on_line(out[1], out[0], {0, 0, 0}, {1, 0, 0});
+    EXPECT_TRUE(has_vertex(out[0], foot, 1e-12));
+    EXPECT_TRUE(has_vertex(out[1], foot, 1e-12));
+    expect_no_t_vertices(out);
+    EXPECT_GE(st.conformity_points, 10u);  // 9 floor vertices on the wall + the shadow foot
+    EXPECT_GE(st.rounds, 2u);
+}
+
+TEST(DmMesh, TVertexCheckerFindsUnconformingNeighbours) {
+    // The checker itself must fail on a T-vertex: mesh regions separately
+    std::vector<PlanarRegion> regions = floor_and_wall();
+    Outputs out = {mesh({regions[0]})[0], mesh({regions[1]})[0]};
+    EXPECT_GT(no_t_vertices_violations(out, false), 0u);
+}
+
+TEST(DmMesh, RefinementReachesMinimumAngle) {
+    std::vector<PlanarRegion> regions = floor_and_wall(4);
+    regions[1].constraints = {{glm::dvec3{0.37, 0, 0}, glm::dvec3{0.6, 0, 0.8}}};
+    regions[0].constraints = {{glm::dvec3{0.1, 0.3, 0}, glm::dvec3{0.9, 0.5, 0}}};
+    DmOptions opt;
+    opt.min_angle_deg = 20.0;
+    DmStats st;
+    const Outputs out = mesh(regions, opt, &st);
+    for (int k = 0; k < 2; ++k) {
+        expect_common(regions[k], out[k]);
+        EXPECT_GE(min_angle_deg(out[k]), 20.0 - 1e-6) << "region " << k;
+    }
+    EXPECT_GT(out[0].triangles.size(), regions[0].triangles.size());
+    expect_no_t_vertices(out);
+    expect_segment_is_edges(out[0], {0.1, 0.3, 0}, {0.9, 0.5, 0});
+    expect_segment_is_edges(out[1], {0.37, 0, 0}, {0.6, 0, 0.8});
+    std::printf("refinement: %zu + %zu triangles, %zu rounds\n", out[0].triangles.size(), out[1].triangles.size(),
+                st.rounds);
+}
+
+TEST(DmMesh, TiltedCreaseConformsWithRefinement) {
+    // Two tilted planes meeting along the x axis (a roof ridge): 6x6 grid and 2 triangles
+    const glm::dvec3 a{1, 0, 0}, b{0, 0.8, 0.6}, c{0, -0.8, 0.6};
+    std::vector<PlanarRegion> regions = {make_grid(6, {0, 0, 0}, a, b, glm::normalize(glm::cross(a, b))),
+                                         make_grid(1, {0, 0, 0}, a, c, glm::normalize(glm::cross(c, a)))};
+    regions[0].constraints = {{glm::dvec3{0.3, 0, 0}, 0.3 * a + 0.9 * b}, {0.05 * a + 0.5 * b, 0.95 * a + 0.45 * b}};
+    regions[1].constraints = {{0.8 * a, 0.5 * a + 0.7 * c}, {0.1 * a + 0.2 * c, 0.9 * a + 0.25 * c}};
+    DmOptions opt;
+    opt.min_angle_deg = 20.0;
+    DmStats st;
+    const Outputs out = mesh(regions, opt, &st);
+    for (int k = 0; k < 2; ++k) {
+        expect_common(regions[k], out[k]);
+        EXPECT_GE(min_angle_deg(out[k]), 20.0 - 1e-6) << "region " << k;
+    }
+    expect_no_t_vertices(out);
+    expect_shared_on_line(out[0], out[1], {0, 0, 0}, a);
+    expect_shared_on_line(out[1], out[0], {0, 0, 0}, a);
+    EXPECT_LE(st.rounds, 8u);
+}
+
+TEST(DmMesh, ManyRandomCrossingSegments) {
+    std::vector<PlanarRegion> regions = floor_and_wall(40);
+    std::mt19937 rng(12345);
+    auto uni = [&rng] { return double(rng() >> 5) / double(1u << 27); };
+    for (int k = 0; k < 60; ++k) {
+        // Segments may start outside the floor, end on the wall foot, or nearly repeat a vertex
+        const glm::dvec3 a{1.2 * uni() - 0.1, 1.2 * uni() - 0.1, 0}, b{uni(), uni(), 0};
+        regions[0].constraints.push_back({a, b});
+    }
+    regions[0].constraints.push_back({glm::dvec3{0.3, 0.3, 0}, glm::dvec3{0.55, 0.0, 0}});
+    regions[1].constraints.push_back({glm::dvec3{0.1, 0, 0.9}, glm::dvec3{0.9, 0, 0.1}});
+    regions[1].constraints.push_back({glm::dvec3{0.1, 0, 0.1}, glm::dvec3{0.9, 0, 0.9}});
+    regions[1].constraints.push_back({glm::dvec3{0.2, 0, 0.5}, glm::dvec3{0.711, 0, 0}});
+    DmStats st;
+    const Outputs out = mesh(regions, {}, &st);
+    expect_common(regions[0], out[0]);
+    expect_common(regions[1], out[1]);
+    expect_no_t_vertices(out);
+    expect_shared_on_line(out[0], out[1], {0, 0, 0}, {1, 0, 0});
+    expect_shared_on_line(out[1], out[0], {0, 0, 0}, {1, 0, 0});
+    EXPECT_TRUE(has_vertex(out[0], {0.711, 0, 0}, 1e-12));
+    EXPECT_TRUE(has_vertex(out[1], {0.55, 0, 0}, 1e-12));
+    // Euler: a disc triangulated with V vertices and B boundary vertices has 2V - B - 2 triangles
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_use;
+    for (const auto& t : out[0].triangles)
+        for (int k = 0; k < 3; ++k) ++edge_use[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
+    std::size_t boundary = 0;
+    for (const auto& [e, c] : edge_use) boundary += c == 1 ? 1 : 0;
+    EXPECT_EQ(out[0].triangles.size(), 2 * out[0].positions.size() - boundary - 2);
+}
+
+TEST(DmMesh, Timing3200TrianglesWith200Segments) {
+    PlanarRegion floor = make_grid(40, {0, 0, 0}, {4, 0, 0}, {0, 4, 0}, {0, 0, 1});
+    std::mt19937 rng(7);
+    auto uni = [&rng] { return double(rng() >> 5) / double(1u << 27); };
+    for (int k = 0; k < 200; ++k) {
+        const glm::dvec3 a{4 * uni(), 4 * uni(), 0}, b{4 * uni(), 4 * uni(), 0};
+        floor.constraints.push_back({a, a + 0.5 * (b - a)});
+    }
+    ASSERT_EQ(floor.triangles.size(), 3200u);
+    for (double angle : {0.0, 20.0}) {
+        DmOptions opt;
+        opt.min_angle_deg = angle;
+        const auto t0 = std::chrono::steady_clock::now();
+        const Outputs out = mesh({floor}, opt);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        std::printf("3200-triangle floor, 200 segments, min angle %.0f: %.1f ms, %zu triangles out\n", angle, ms,
+                    out[0].triangles.size());
+        EXPECT_NEAR(area_out(out[0]), 16.0, 16e-9);
+    }
+}
+
+TEST(DmMesh, EmptyRegionGivesEmptyResult) {
+    PlanarRegion empty;
+    empty.normal = {0, 0, 1};
+    const Outputs out = mesh({empty, unit_square()});
+    ASSERT_EQ(out.size(), 2u);
+    EXPECT_TRUE(out[0].triangles.empty());
+    EXPECT_TRUE(out[0].positions.empty());
+    EXPECT_EQ(out[1].triangles.size(), 2u);
+}
+
+TEST(DmMesh, InvalidInputThrows) {
+    PlanarRegion r = unit_square();
+    r.normal = {0, 0, 0};
+    EXPECT_THROW(mesh({r}), std::invalid_argument);
+    r.normal = {0, 0, std::nan("")};
+    EXPECT_THROW(mesh({r}), std::invalid_argument);
+    r = unit_square();
+    r.triangles.push_back({0, 1, 4});
+    EXPECT_THROW(mesh({r}), std::invalid_argument);
+    DmOptions opt;
+    opt.min_angle_deg = 25.0;
+    EXPECT_THROW(mesh({unit_square()}, opt), std::invalid_argument);
+    opt.min_angle_deg = -1.0;
+    EXPECT_THROW(mesh({unit_square()}, opt), std::invalid_argument);
+    EXPECT_NO_THROW(mesh({unit_square()}));
+}
+
+}  // namespace
+}  // namespace abrad::radiosity

@@ -13,6 +13,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -120,7 +121,9 @@ TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
     const std::string db = baked_db();
     const std::string before = bytes(db);
     for (const std::string opts : {"--resolution 51", "--subpixels 5", "--bounces 2", "--method nope",
-                                   "--shading nope", "--unknown-option 1"}) {
+                                   "--shading nope", "--unknown-option 1", "--dm maybe", "--lights sun",
+                                   "--dm-angle 30", "--refine-rounds -1", "--refine-tolerance 0",
+                                   "--refine-min-edge -2"}) {
         const Result r = run("bake --db " + db + " " + opts);
         EXPECT_EQ(r.status, 2) << opts << "\n" << r.output;
         EXPECT_NE(r.output.find("abrad"), std::string::npos);
@@ -234,6 +237,41 @@ TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
     // OBJ and MTL beside it
     EXPECT_NE(bytes(path("paper_occluder.obj")).find("\nv "), std::string::npos);
     EXPECT_NE(bytes(path("paper_occluder.mtl")).find("Ke 100 100 100"), std::string::npos);
+}
+
+// Parses `key: value` lines.
+std::map<std::string, std::string> key_values(const std::string& text) {
+    std::map<std::string, std::string> kv;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);)
+        if (const auto colon = line.find(": "); colon != std::string::npos)
+            kv[line.substr(0, colon)] = line.substr(colon + 2);
+    return kv;
+}
+
+// The paper's room with its occluder: discontinuity meshing cuts the field error of the
+// 2-triangle walls and the floor's shadow to a small fraction.
+TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
+    const std::string db = baked_db();  // bake "first": the defaults, --dm on
+    ASSERT_EQ(run("bake --db " + db + " --name plain --dm off").status, 0);
+    const Result on = run("field-error --db " + db + " --bake first");
+    const Result off = run("field-error --db " + db + " --bake plain");
+    ASSERT_EQ(on.status, 0) << on.output;
+    ASSERT_EQ(off.status, 0) << off.output;
+    auto kv_on = key_values(on.output), kv_off = key_values(off.output);
+    EXPECT_EQ(kv_off["triangles"], "3213");
+    EXPECT_GT(std::stoul(kv_on["triangles"]), 3213u);
+    EXPECT_NEAR(std::stod(kv_on["receiver_area_m2"]), std::stod(kv_off["receiver_area_m2"]), 1e-6);
+    const double e_on = std::stod(kv_on["relative_l1"]), e_off = std::stod(kv_off["relative_l1"]);
+    EXPECT_GT(e_off, 0.2);
+    EXPECT_LT(e_on, 0.1 * e_off);
+    EXPECT_EQ(run("field-error --db " + db + " --bake nope").status, 2);
+    EXPECT_EQ(run("field-error --db " + db + " --subdivisions 0").status, 2);
+    const std::string empty = path("empty.visdb").string();
+    ASSERT_EQ(run("import " + sample("paper_simple/paper_simple.obj") + " --db " + empty).status, 0);
+    const Result none = run("field-error --db " + empty);
+    EXPECT_EQ(none.status, 2);
+    EXPECT_NE(none.output.find("no bake"), std::string::npos);
 }
 
 TEST_F(Cli, InfoAndExportNameWhatTheyRead) {

@@ -36,9 +36,9 @@ struct BakeOptions {
     LightModel lights = LightModel::Area;  ///< how lights cast shadow edges
     double dm_min_angle = 0.0;      ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
     int refine_rounds = 4;          ///< illumination-driven refinement rounds (0 = shadow edges only)
-    double refine_tolerance = 0.05; ///< split an edge when its midpoint's exact irradiance departs
+    double refine_tolerance = 0.1;  ///< split an edge when its midpoint's exact irradiance departs
                                     ///< from the linear interpolation by more than this, relative
-    double refine_min_edge = 0.02;  ///< edges shorter than this (metres) are not split
+    double refine_min_edge = 0.05;  ///< edges shorter than this (metres) are not split
 };
 
 /// Bad bake settings or a scene that cannot be baked (no lights...): the caller exits 2.
