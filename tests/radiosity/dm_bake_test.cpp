@@ -14,6 +14,7 @@
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/field_error.h"
+#include "mesh_checks.h"
 
 namespace abrad::radiosity {
 namespace {
@@ -50,34 +51,8 @@ visdb::Scene room(int floor_cells) {
     return scene;
 }
 
-double triangle_area(const visdb::BakeMesh& m, std::size_t t) {
-    const auto& tri = m.triangles[t];
-    return 0.5 * glm::length(glm::cross(m.positions[tri.y] - m.positions[tri.x], m.positions[tri.z] - m.positions[tri.x]));
-}
-
-// Vertices of `m` lying strictly inside an edge of another triangle (T-vertices).
-std::size_t count_t_vertices(const visdb::BakeMesh& m) {
-    std::vector<std::uint32_t> by_x(m.positions.size());
-    for (std::uint32_t i = 0; i < by_x.size(); ++i) by_x[i] = i;
-    std::sort(by_x.begin(), by_x.end(), [&](auto a, auto b) { return m.positions[a].x < m.positions[b].x; });
-    std::size_t found = 0;
-    for (const auto& t : m.triangles)
-        for (int k = 0; k < 3; ++k) {
-            const glm::dvec3 a = m.positions[t[k]], b = m.positions[t[(k + 1) % 3]];
-            const double lo = std::min(a.x, b.x) - 1e-9, hi = std::max(a.x, b.x) + 1e-9;
-            auto it = std::lower_bound(by_x.begin(), by_x.end(), lo,
-                                       [&](std::uint32_t v, double x) { return m.positions[v].x < x; });
-            const glm::dvec3 d = b - a;
-            const double len2 = glm::dot(d, d);
-            for (; it != by_x.end() && m.positions[*it].x <= hi; ++it) {
-                const glm::dvec3 p = m.positions[*it];
-                const double s = glm::dot(p - a, d) / len2;
-                if (s <= 1e-9 || s >= 1 - 1e-9) continue;
-                if (glm::length(a + s * d - p) < 1e-9) ++found;
-            }
-        }
-    return found;
-}
+using testing::count_t_vertices;
+using testing::triangle_area;
 
 TEST(DmBake, CentroidShadowCornersBecomeFloorVertices) {
     const visdb::Scene scene = room(8);

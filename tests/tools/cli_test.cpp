@@ -21,6 +21,7 @@
 
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/visdb/store.h"
+#include "../radiosity/mesh_checks.h"
 
 namespace fs = std::filesystem;
 
@@ -272,6 +273,35 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     const Result none = run("field-error --db " + empty);
     EXPECT_EQ(none.status, 2);
     EXPECT_NE(none.output.find("no bake"), std::string::npos);
+}
+
+// The furnished room (coarse CAD-like walls, a 12×10 floor meeting walls of 2 triangles,
+// furniture standing on the floor): the discontinuity mesh has no T-vertices and every
+// surface keeps its area.
+TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
+    const Result r = run("run " + sample("furnished_room/furnished_room.obj") + " --out " + m_dir.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    auto store = abrad::visdb::Store::open(path("furnished_room.visdb").string(), abrad::visdb::OpenMode::ReadWrite);
+    const abrad::visdb::Scene scene = store.load_scene();
+    const auto bake = store.load_bake();
+    std::vector<double> area(scene.surfaces.size(), 0.0), expected(scene.surfaces.size(), 0.0);
+    std::size_t input_triangles = 0;
+    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
+        const auto& m = scene.surfaces[s].mesh;
+        for (const auto& t : m.triangles)
+            expected[s] += 0.5 * glm::length(glm::cross(m.positions[t.y] - m.positions[t.x],
+                                                        m.positions[t.z] - m.positions[t.x]));
+        input_triangles += m.triangles.size();
+    }
+    for (std::size_t t = 0; t < bake.mesh.triangles.size(); ++t)
+        area[bake.mesh.triangle_surface[t]] += abrad::testing::triangle_area(bake.mesh, t);
+    for (std::size_t s = 0; s < area.size(); ++s)
+        EXPECT_NEAR(area[s], expected[s], 1e-9 * expected[s]) << scene.surfaces[s].name;
+    EXPECT_EQ(abrad::testing::count_t_vertices(bake.mesh), 0u);
+    EXPECT_GT(bake.mesh.triangles.size(), input_triangles);
+    // The model as drawn has them: the floor's vertices along the walls' feet
+    ASSERT_EQ(run("bake --db " + path("furnished_room.visdb").string() + " --name plain --dm off").status, 0);
+    EXPECT_GT(abrad::testing::count_t_vertices(store.load_bake("plain").mesh), 0u);
 }
 
 TEST_F(Cli, InfoAndExportNameWhatTheyRead) {

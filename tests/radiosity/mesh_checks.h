@@ -1,0 +1,61 @@
+#pragma once
+// Checks on baked meshes shared by the radiosity and command-line tests.
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <utility>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "abrad/visdb/model.h"
+
+namespace abrad::testing {
+
+/// T-vertices of `m`: a vertex on the boundary of its region (an edge used by one triangle)
+/// lying strictly inside (within `eps` metres) a boundary edge of another triangle, i.e. where
+/// neighbouring regions (a floor and a wall, two faces at a crease) do not share their
+/// vertices and Gouraud shading cracks. Vertices of objects merely standing on a surface's
+/// interior (a table leg on a floor) are contacts, not T-vertices.
+inline std::size_t count_t_vertices(const visdb::BakeMesh& m, double eps = 1e-9) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
+    for (const auto& t : m.triangles)
+        for (int k = 0; k < 3; ++k) ++uses[std::minmax(t[k], t[(k + 1) % 3])];
+    std::vector<char> on_boundary(m.positions.size(), 0);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> boundary;
+    for (const auto& [e, n] : uses)
+        if (n == 1) {
+            boundary.push_back(e);
+            on_boundary[e.first] = on_boundary[e.second] = 1;
+        }
+    std::vector<std::uint32_t> by_x;
+    for (std::uint32_t i = 0; i < m.positions.size(); ++i)
+        if (on_boundary[i]) by_x.push_back(i);
+    std::sort(by_x.begin(), by_x.end(), [&](auto a, auto b) { return m.positions[a].x < m.positions[b].x; });
+    std::size_t found = 0;
+    for (const auto& [ia, ib] : boundary) {
+        const glm::dvec3 a = m.positions[ia], b = m.positions[ib];
+        const double lo = std::min(a.x, b.x) - eps, hi = std::max(a.x, b.x) + eps;
+        auto it = std::lower_bound(by_x.begin(), by_x.end(), lo,
+                                   [&](std::uint32_t v, double x) { return m.positions[v].x < x; });
+        const glm::dvec3 d = b - a;
+        const double len2 = glm::dot(d, d);
+        for (; it != by_x.end() && m.positions[*it].x <= hi; ++it) {
+            const glm::dvec3 p = m.positions[*it];
+            const double s = glm::dot(p - a, d) / len2;
+            if (s < 0 || s > 1 || s * s * len2 <= eps * eps || (1 - s) * (1 - s) * len2 <= eps * eps) continue;
+            if (glm::length(a + s * d - p) < eps) ++found;
+        }
+    }
+    return found;
+}
+
+/// Area of triangle `t` of `m`, m².
+inline double triangle_area(const visdb::BakeMesh& m, std::size_t t) {
+    const auto& tri = m.triangles[t];
+    return 0.5 * glm::length(glm::cross(m.positions[tri.y] - m.positions[tri.x], m.positions[tri.z] - m.positions[tri.x]));
+}
+
+}  // namespace abrad::testing
