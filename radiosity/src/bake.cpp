@@ -122,6 +122,25 @@ glm::dvec3 unit_normal(const Patch& p) {
     return glm::normalize(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]));
 }
 
+// False when `c` cannot hide any part of `light` from any part of `receiver`: the six
+// corners lie on one closed side of c's plane, so no segment between them crosses it (a
+// floor cannot shadow a wall standing on it; a wall cannot shadow the floor).
+bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
+    const glm::dvec3 cr = glm::cross(c.p[1] - c.p[0], c.p[2] - c.p[0]);
+    const double len = glm::length(cr);
+    if (!(len > 0.0)) return false;
+    const glm::dvec3 n = cr / len;
+    double lo = 0.0, hi = 0.0;
+    for (const Patch* q : {&light, &receiver})
+        for (const glm::dvec3& p : q->p) {
+            const double d = glm::dot(p - c.p[0], n);
+            lo = std::min(lo, d);
+            hi = std::max(hi, d);
+        }
+    const double eps = 1e-9 * (hi - lo) + 1e-12;
+    return lo < -eps && hi > eps;
+}
+
 // Exact direct irradiance at any point from every light; occluders from a conservative query
 // of the box around the point and each light.
 visdb::Rgb exact_irradiance(const Work& w, const Bvh& bvh, std::span<const std::uint32_t> lights,
@@ -427,8 +446,10 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
                     }
                     if (!in_front || !facing) continue;
                     ids.clear();
+                    // Only occluders whose plane separates some light and receiver points
                     for (const OcclusionPair& p : shot.occluders_of(static_cast<std::uint32_t>(j)))
-                        if (p.occluder != l) ids.push_back(p.occluder);
+                        if (p.occluder != l && can_occlude(w.patches[p.occluder], light, r))
+                            ids.push_back(p.occluder);
                     const std::size_t n_listed = ids.size();
                     Box box;
                     for (int k = 0; k < 3; ++k) {
@@ -436,8 +457,9 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
                         box.grow(r.p[k]);
                     }
                     bvh.query(box, [&](std::uint32_t id) {
-                        if (id != l && id != j && std::find(ids.begin(), ids.begin() + n_listed, id) ==
-                                                      ids.begin() + n_listed)
+                        if (id != l && id != j &&
+                            std::find(ids.begin(), ids.begin() + n_listed, id) == ids.begin() + n_listed &&
+                            can_occlude(w.patches[id], light, r))
                             ids.push_back(id);
                     });
                     if (ids.empty()) continue;
