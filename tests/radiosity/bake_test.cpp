@@ -11,33 +11,12 @@
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/form_factor.h"
 #include "analytic.h"
+#include "scenes.h"
 
 namespace abrad::radiosity {
 namespace {
 
-// A quad surface [x0,x1]×[y0,y1] at height z split into n×n cells, facing up or down.
-visdb::Surface grid(const std::string& name, std::uint32_t material, double x0, double x1,
-                    double y0, double y1, double z, int n, bool up) {
-    visdb::Surface s;
-    s.name = name;
-    s.material = material;
-    for (int j = 0; j <= n; ++j)
-        for (int i = 0; i <= n; ++i)
-            s.mesh.positions.push_back({x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * j / n, z});
-    auto id = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i) {
-            const auto a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
-            if (up) {
-                s.mesh.triangles.push_back({a, b, c});
-                s.mesh.triangles.push_back({a, c, d});
-            } else {
-                s.mesh.triangles.push_back({a, c, b});
-                s.mesh.triangles.push_back({a, d, c});
-            }
-        }
-    return s;
-}
+using abrad::testing::grid;
 
 // Floor 2×2 m (8×8 cells) under a 1×1 m light at 1.5 m, E = (10, 20, 5) W/m², ρ_floor = 0.5.
 visdb::Scene paper_scene(bool occluder) {

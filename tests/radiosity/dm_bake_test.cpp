@@ -15,25 +15,12 @@
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/field_error.h"
 #include "mesh_checks.h"
+#include "scenes.h"
 
 namespace abrad::radiosity {
 namespace {
 
-visdb::Surface quad_grid(const std::string& name, std::uint32_t material, glm::dvec3 o, glm::dvec3 u,
-                         glm::dvec3 v, int n) {
-    visdb::Surface s;
-    s.name = name;
-    s.material = material;
-    for (int j = 0; j <= n; ++j)
-        for (int i = 0; i <= n; ++i) s.mesh.positions.push_back(o + u * (double(i) / n) + v * (double(j) / n));
-    auto id = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i) {
-            s.mesh.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
-            s.mesh.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
-        }
-    return s;
-}
+using abrad::testing::quad_grid;
 
 // A 2×2 m floor of n×n cells (front up), a 1×1 m light at 1.5 m facing down, a 0.4 m square
 // occluder at 0.75 m, and a 2-triangle wall standing on the floor's edge at x = 1 facing -x
@@ -51,8 +38,8 @@ visdb::Scene room(int floor_cells) {
     return scene;
 }
 
-using testing::count_t_vertices;
-using testing::triangle_area;
+using abrad::testing::count_t_vertices;
+using abrad::testing::triangle_area;
 
 TEST(DmBake, CentroidShadowCornersBecomeFloorVertices) {
     const visdb::Scene scene = room(8);

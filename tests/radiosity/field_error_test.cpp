@@ -1,4 +1,5 @@
 #include "abrad/radiosity/field_error.h"
+#include "scenes.h"
 
 #include <atomic>
 #include <cmath>
@@ -197,29 +198,7 @@ TEST(FieldError, NoReceiversGivesZeros) {
     EXPECT_EQ(e.samples, 0u);
 }
 
-// A quad surface [x0,x1]×[y0,y1] at height z split into n×n cells (2 triangles each).
-visdb::Surface grid(const std::string& name, std::uint32_t material, double x0, double x1,
-                    double y0, double y1, double z, int n, bool up) {
-    visdb::Surface s;
-    s.name = name;
-    s.material = material;
-    for (int j = 0; j <= n; ++j)
-        for (int i = 0; i <= n; ++i)
-            s.mesh.positions.push_back({x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * j / n, z});
-    auto id = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i) {
-            const auto a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
-            if (up) {
-                s.mesh.triangles.push_back({a, b, c});
-                s.mesh.triangles.push_back({a, c, d});
-            } else {
-                s.mesh.triangles.push_back({a, c, b});
-                s.mesh.triangles.push_back({a, d, c});
-            }
-        }
-    return s;
-}
+using abrad::testing::grid;
 
 // A 4×4 m floor under a 1×1 m light 2 m above it facing down (E = 100 W/m²).
 visdb::Scene floor_scene(int floor_cells) {
