@@ -297,16 +297,31 @@ visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& optio
     return b;
 }
 
-void export_bake(const std::string& db, const std::string& bake_name, const std::string& format,
-                 const std::string& output, bool ascii) {
-    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
-    if (store.list_bakes().empty()) bad_input(db + ": no bake to export (run abrad bake first)");
-    visdb::Bake b;
+// The named bake (empty = the latest) for a command that needs one: an empty database or an
+// unknown name is bad input.
+visdb::Bake load_bake_for(visdb::Store& store, const std::string& db, const std::string& bake_name,
+                          const std::string& purpose) {
+    if (store.list_bakes().empty()) bad_input(db + ": no bake to " + purpose + " (run abrad bake first)");
     try {
-        b = store.load_bake(bake_name);
+        return store.load_bake(bake_name);
     } catch (const visdb::StoreError& e) {
         bad_input(e.what());
     }
+}
+
+// The exact direct field of the database's scene; a scene without lights is bad input.
+radiosity::DirectField direct_field_of(const std::string& db, const visdb::Scene& scene) {
+    try {
+        return radiosity::DirectField(scene);
+    } catch (const radiosity::BakeError& e) {
+        bad_input(db + ": " + e.what());
+    }
+}
+
+void export_bake(const std::string& db, const std::string& bake_name, const std::string& format,
+                 const std::string& output, bool ascii) {
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    const visdb::Bake b = load_bake_for(store, db, bake_name, "export");
     const exporter::ToneMap tone = exporter::auto_tone_map(b.mesh);
     if (format == "ply") {
         exporter::write_ply(output, b.mesh, tone, {.ascii = ascii, .comment = "abrad bake " + b.name});
@@ -416,19 +431,14 @@ void probe(const std::string& db, const std::string& points_path, const std::str
         }
     }
     const visdb::Scene scene = store.load_scene();
-    std::optional<radiosity::DirectField> field;
-    try {
-        field.emplace(scene);
-    } catch (const radiosity::BakeError& e) {
-        bad_input(db + ": " + e.what());
-    }
+    const radiosity::DirectField field = direct_field_of(db, scene);
     // Bakes so far are direct light only (--bounces 0): the exact direct value is the whole
     // irradiance. Interreflection will add its interpolated indirect part here.
     std::fprintf(stderr, "probe: %zu points, %zu light triangles, direct light only, unit %s\n",
-                 points.size(), field->light_triangles(), unit.c_str());
+                 points.size(), field.light_triangles(), unit.c_str());
     std::printf("x,y,z,nx,ny,nz,irradiance_r,irradiance_g,irradiance_b\n");
     for (const Point& pt : points) {
-        const visdb::Rgb h = field->irradiance(pt.x, pt.n);
+        const visdb::Rgb h = field.irradiance(pt.x, pt.n);
         std::printf("%.17g,%.17g,%.17g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", pt.x.x, pt.x.y, pt.x.z,
                     pt.n.x, pt.n.y, pt.n.z, h.x, h.y, h.z);
     }
@@ -440,23 +450,12 @@ void field_error(const std::string& db, const std::string& bake_name, int subdiv
     if (subdivisions < 1 || subdivisions > 64)
         bad_input("--subdivisions must be in [1, 64], got " + std::to_string(subdivisions));
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
-    if (store.list_bakes().empty()) bad_input(db + ": no bake to measure (run abrad bake first)");
-    visdb::Bake b;
-    try {
-        b = store.load_bake(bake_name);
-    } catch (const visdb::StoreError& e) {
-        bad_input(e.what());
-    }
+    const visdb::Bake b = load_bake_for(store, db, bake_name, "measure");
     const visdb::Scene scene = store.load_scene();
-    std::optional<radiosity::DirectField> field;
-    try {
-        field.emplace(scene);
-    } catch (const radiosity::BakeError& e) {
-        bad_input(db + ": " + e.what());
-    }
+    const radiosity::DirectField field = direct_field_of(db, scene);
     const auto t0 = std::chrono::steady_clock::now();
     const radiosity::FieldError e = radiosity::field_error(
-        scene, b.mesh, [&](const glm::dvec3& x, const glm::dvec3& n) { return field->irradiance(x, n); },
+        scene, b.mesh, [&](const glm::dvec3& x, const glm::dvec3& n) { return field.irradiance(x, n); },
         {.subdivisions = subdivisions});
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("bake: %s\ntriangles: %zu\nreceiver_triangles: %zu\nreceiver_area_m2: %.6g\n"
