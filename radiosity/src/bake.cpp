@@ -583,6 +583,9 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
             for (std::size_t r = 0; r < meshed.size(); ++r)
                 region_start[r + 1] = region_start[r] + static_cast<std::uint32_t>(meshed[r].positions.size());
             std::vector<std::vector<glm::dvec3>> split(meshed.size());
+            // Midpoints evaluated this round, cached like vertices: an edge that stays unsplit
+            // keeps its midpoint's bits, so later rounds look it up instead of re-evaluating
+            std::vector<std::vector<std::pair<PointKey, visdb::Rgb>>> evaluated(meshed.size());
             tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
                 if (regions.emitter[r]) return;
                 const MeshedRegion& m = meshed[r];
@@ -602,12 +605,23 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
                                                ? pa + 0.5 * (pb - pa)
                                                : pb + 0.5 * (pa - pb);
                     const visdb::Rgb linear = 0.5 * (h[region_start[r] + a] + h[region_start[r] + b]);
-                    const visdb::Rgb at_mid = exact_irradiance(w, bvh, lights, mid, rn, occ);
+                    const PointKey key = key_of(static_cast<std::uint32_t>(r), mid);
+                    const auto hit = cache.find(key);
+                    visdb::Rgb at_mid;
+                    if (hit != cache.end()) {
+                        at_mid = hit->second;
+                    } else {
+                        at_mid = exact_irradiance(w, bvh, lights, mid, rn, occ);
+                        evaluated[r].emplace_back(key, at_mid);
+                    }
                     const double diff = mean(glm::abs(at_mid - linear));
                     if (diff > floor && diff > options.refine_tolerance * std::max(mean(at_mid), mean(linear)))
                         split[r].push_back(mid);
                 }
             });
+            for (const auto& list : evaluated)
+                for (const auto& [key, value] : list)
+                    if (cache.emplace(key, value).second) ++evaluations;
             std::size_t added = 0;
             std::unordered_set<PointKey, PointKeyHash> seen;
             for (std::size_t r = 0; r < split.size(); ++r)
