@@ -8,6 +8,8 @@
 #include <string_view>
 #include <vector>
 
+#include <glm/vec3.hpp>
+
 #include "abrad/visdb/model.h"
 
 namespace abrad::convert {
@@ -26,8 +28,18 @@ private:
 
 /// How to bring a file into the internal frame (metres, Z up).
 struct ImportOptions {
-    std::string unit = "m";  ///< one of mm, cm, m, in, ft
-    char up = 'z';           ///< 'y' rotates a Y-up file to Z up: (x, y, z) -> (x, -z, y)
+    /// One of mm, cm, m, in, ft; empty: the unit the file declares (Assimp formats that carry
+    /// one), else metres.
+    std::string unit;
+    /// 'y' rotates a Y-up file to Z up: (x, y, z) -> (x, -z, y); 'z' keeps it; 0: the format's
+    /// convention (glTF is Y up; Collada and FBX say in the file; OBJ and the CAD formats are
+    /// taken as Z up).
+    char up = 0;
+    /// Subtracted from every position after unit and axis conversion (metres, Z up): brings
+    /// survey coordinates near the origin. The scene file's `origin_shift`.
+    glm::dvec3 origin_shift{0.0};
+    /// Vertices closer than this fraction of the model's bounding-box diagonal are welded.
+    double weld_tolerance = 1e-6;
 };
 
 /// Metres per unit for "mm", "cm", "m", "in", "ft"; throws std::invalid_argument otherwise.
@@ -39,10 +51,16 @@ struct ImportReport {
     std::size_t faces_read = 0;             ///< polygons in the file
     std::size_t triangles = 0;              ///< triangles kept
     std::size_t polygons_triangulated = 0;  ///< faces with more than three corners
-    std::size_t vertices_welded = 0;        ///< duplicate positions merged
+    std::size_t vertices_welded = 0;        ///< positions merged (equal or within tolerance)
+    std::size_t vertices_welded_near = 0;   ///< of those, merged within tolerance but not equal
+    double weld_distance = 0.0;             ///< metres: the tolerance welding used
     std::size_t degenerate_dropped = 0;     ///< zero-area triangles dropped
     std::size_t duplicates_dropped = 0;     ///< triangles repeating another (any rotation/winding)
     std::size_t unused_vertices = 0;        ///< vertices no face uses
+    std::size_t non_planar_polygons = 0;    ///< polygons off their best-fit plane (noted)
+    std::size_t triangles_flipped = 0;      ///< turned to agree with their surface's winding
+    std::size_t surfaces_flipped = 0;       ///< surfaces with at least one flipped triangle
+    std::size_t overlapping_pairs = 0;      ///< coplanar overlapping triangle pairs (z-fighting)
     std::size_t emitter_triangles = 0;
     std::vector<std::string> notes;         ///< "FILE:LINE: ..." warnings (unknown statements...)
 

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 namespace abrad::visdb {
@@ -53,6 +54,18 @@ struct Camera {
     double fov_y_deg = 60.0;
 };
 
+/// A calculation grid: points on a horizontal work plane at height `z`, `spacing` apart,
+/// covering the rectangle [min, max] (x, y, already inset by the margin), facing `normal`.
+/// Evaluated after each bake (illuminance E_avg, E_min, E_max, uniformity).
+struct CalculationGrid {
+    std::string name;
+    glm::dvec2 min{0.0};
+    glm::dvec2 max{0.0};
+    double z = 0.0;
+    double spacing = 0.5;
+    glm::dvec3 normal{0.0, 0.0, 1.0};
+};
+
 /// One imported file: where it came from and what the import did to it.
 struct Source {
     std::string path;         ///< the path as given on the command line
@@ -71,6 +84,10 @@ struct Scene {
     std::vector<Material> materials;
     std::vector<Surface> surfaces;
     std::vector<Camera> cameras;
+    std::vector<CalculationGrid> grids;
+    /// Unit of every material's emittance: "W/m2" (radiometric, irradiance in W/m²) or
+    /// "lm/m2" (photometric, illuminance in lux).
+    std::string emittance_unit = "W/m2";
 
     std::size_t triangle_count() const {
         std::size_t n = 0;

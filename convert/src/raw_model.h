@@ -1,0 +1,89 @@
+#pragma once
+// What a reader hands to healing: a polygon soup in metres and Z up, before welding and
+// triangulation, with enough bookkeeping to name the place of every face in a note.
+// Internal to convert/: the OBJ reader and the Assimp reader fill it, heal() consumes it.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string_view>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "abrad/convert/obj_import.h"
+#include "abrad/visdb/model.h"
+
+namespace abrad::convert::detail {
+
+/// One future visdb::Surface: an (object, layer, material) triple of the source file.
+struct RawSlot {
+    std::string name;      ///< object, node or group name
+    std::string layer;     ///< CAD layer; empty when the format has none
+    std::string material;  ///< a name in RawModel::materials (or unknown: default material)
+    std::size_t place = 0; ///< where the slot first appears (see RawModel::where)
+};
+
+/// One polygon: corners `corners[first, first + count)`, indices into RawModel::positions.
+struct RawFace {
+    std::size_t place = 0;  ///< where the face is (see RawModel::where)
+    std::uint32_t slot = 0;
+    std::size_t first = 0;
+    std::uint32_t count = 0;
+};
+
+/// The polygon soup of one file. Positions are finite, in metres, Z up (the reader converts
+/// units and axes and rejects NaN/Inf); corner indices are in range (the reader checks).
+struct RawModel {
+    std::string file;  ///< the path as the user gave it, for messages
+    std::vector<glm::dvec3> positions;
+    std::vector<std::uint32_t> corners;
+    std::vector<RawFace> faces;
+    std::vector<RawSlot> slots;
+    std::vector<visdb::Material> materials;  ///< by name; the first definition of a name wins
+    std::vector<visdb::Camera> cameras;      ///< cameras the file carries (Z up, metres)
+    /// The file: path, format ("obj", "gltf", "ifc"...), checksum, size, unit and up axis
+    /// actually used (imported_at and report are filled later).
+    visdb::Source source;
+    /// "FILE:LINE" or "FILE: mesh 'Wall' face 12" for a place; the OBJ reader's places are
+    /// lines, the Assimp reader's are (mesh, face) codes it alone understands.
+    std::function<std::string(std::size_t place)> where;
+};
+
+/// Reads an OBJ file and its MTL libraries (obj_import.cpp). Notes go to `notes`.
+RawModel read_obj(const std::filesystem::path& path, const ImportOptions& options,
+                  std::vector<std::string>& notes);
+
+/// Reads any format Assimp knows (assimp_import.cpp). Notes go to `notes`.
+RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& options,
+                     std::vector<std::string>& notes);
+
+/// Healing settings.
+struct HealOptions {
+    /// Vertices closer than this fraction of the model's bounding-box diagonal are welded
+    /// (0 welds only bit-identical positions).
+    double weld_tolerance = 1e-7;
+};
+
+/// Welds, triangulates, drops degenerate and duplicate triangles, makes winding consistent
+/// within each connected surface and reports coplanar overlapping faces; fills the counts and
+/// notes of `report`. Returns the scene's materials and surfaces (no sources, source index
+/// 0). Throws ImportError when no triangle is left.
+visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport& report);
+
+/// "FILE:LINE: message", or "FILE: message" when `line` is 0.
+std::string located(const std::string& file, std::size_t line, std::string_view message);
+
+/// FNV-1a 64 of `bytes` as 16 hex digits (Source::checksum).
+std::string fnv1a64_hex(std::string_view bytes);
+
+/// Current time as ISO 8601 UTC (Source::imported_at).
+std::string utc_now_iso8601();
+
+/// Reads a whole file; throws ImportError naming `display` when it cannot.
+std::string read_file_bytes(const std::filesystem::path& path, const std::string& display,
+                            const char* what);
+
+}  // namespace abrad::convert::detail
