@@ -12,6 +12,7 @@
 // always yields n - 2 triangles; zero-area ones are dropped and counted afterwards.
 
 #include "abrad/convert/obj_import.h"
+#include "raw_model.h"
 
 #include <algorithm>
 #include <array>
@@ -36,6 +37,11 @@
 
 namespace abrad::convert {
 
+using detail::located;
+using detail::read_file_bytes;
+using detail::fnv1a64_hex;
+using detail::utc_now_iso8601;
+
 namespace {
 
 constexpr double kMaxReflectance = 0.999;         ///< radiosity needs ρ < 1
@@ -44,18 +50,6 @@ constexpr double kNonPlanarTolerance = 1e-4;      ///< × polygon extent, before
 constexpr std::size_t kNotesPerKind = 5;          ///< repeated healing notes shown per kind
 constexpr std::size_t kUnknownKeywordNotes = 20;  ///< distinct unknown statements shown
 constexpr const char* kDefaultMaterialName = "default";
-
-/// "FILE:LINE: message", or "FILE: message" when `line` is 0.
-std::string located(const std::string& file, std::size_t line, std::string_view message) {
-    std::string s = file;
-    if (line > 0) {
-        s += ':';
-        s += std::to_string(line);
-    }
-    s += ": ";
-    s += message;
-    return s;
-}
 
 /// Quotes a token for a message, shortened so binary junk cannot flood the output.
 std::string quote_token(std::string_view token) {
@@ -73,26 +67,6 @@ std::string quote_token(std::string_view token) {
 
 // ---------------------------------------------------------------------------------------------
 // Text input
-
-std::string read_file_bytes(const std::filesystem::path& path, const std::string& display,
-                            std::string_view what) {
-    std::error_code ec;
-    const auto status = std::filesystem::status(path, ec);
-    if (status.type() == std::filesystem::file_type::not_found) {
-        throw ImportError(display, 0, "no such " + std::string(what));
-    }
-    if (ec)
-        throw ImportError(display, 0, "cannot access " + std::string(what) + ": " + ec.message());
-    if (std::filesystem::is_directory(status)) {
-        throw ImportError(display, 0, "is a directory, not a " + std::string(what));
-    }
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw ImportError(display, 0, "cannot open " + std::string(what));
-    std::ostringstream bytes;
-    if (in.peek() != std::ifstream::traits_type::eof()) bytes << in.rdbuf();
-    if (in.bad()) throw ImportError(display, 0, "cannot read " + std::string(what));
-    return std::move(bytes).str();
-}
 
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
@@ -954,26 +928,6 @@ double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<s
     return extent > 0.0 ? off_plane / extent : 0.0;
 }
 
-std::string fnv1a64_hex(std::string_view bytes) {
-    std::uint64_t h = 0xcbf29ce484222325ULL;
-    for (const char ch : bytes) {
-        h ^= static_cast<std::uint8_t>(ch);
-        h *= 0x100000001b3ULL;
-    }
-    std::array<char, 17> buf{};
-    std::snprintf(buf.data(), buf.size(), "%016llx", static_cast<unsigned long long>(h));
-    return buf.data();
-}
-
-std::string utc_now_iso8601() {
-    const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    std::array<char, 32> buf{};
-    std::strftime(buf.data(), buf.size(), "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf.data();
-}
-
 std::string format_general(double x) {
     std::array<char, 32> buf{};
     std::snprintf(buf.data(), buf.size(), "%.3g", x);
@@ -1024,10 +978,11 @@ std::string ImportReport::to_string() const {
 }
 
 ImportResult import_obj(const std::filesystem::path& path, const ImportOptions& options) {
-    const UnitScale scale = unit_scale(options.unit);  // throws std::invalid_argument
-    if (options.up != 'y' && options.up != 'z') {
-        throw std::invalid_argument(std::string("up axis must be 'y' or 'z', got '") + options.up +
-                                    "'");
+    const std::string unit = options.unit.empty() ? "m" : options.unit;
+    const char up = options.up == 0 ? 'z' : options.up;
+    const UnitScale scale = unit_scale(unit);  // throws std::invalid_argument
+    if (up != 'y' && up != 'z') {
+        throw std::invalid_argument(std::string("up axis must be 'y' or 'z', got '") + up + "'");
     }
     const std::string file = path.string();
     const std::string bytes = read_file_bytes(path, file, "file");
@@ -1037,7 +992,7 @@ ImportResult import_obj(const std::filesystem::path& path, const ImportOptions& 
 
     // Read the statements of the OBJ file and its material libraries
     MaterialLibrary library;
-    ObjParser parser(file, path.parent_path(), path.stem().string(), scale, options.up, library,
+    ObjParser parser(file, path.parent_path(), path.stem().string(), scale, up, library,
                      report.notes);
     const ObjData data = parser.parse(bytes);
     report.vertices_read = data.positions.size();
@@ -1227,8 +1182,8 @@ ImportResult import_obj(const std::filesystem::path& path, const ImportOptions& 
     source.format = "obj";
     source.checksum = fnv1a64_hex(bytes);
     source.size_bytes = bytes.size();
-    source.unit = options.unit;
-    source.up_axis = std::string(1, options.up);
+    source.unit = unit;
+    source.up_axis = std::string(1, up);
     source.imported_at = utc_now_iso8601();
     source.report = report.to_string();
     scene.sources.push_back(std::move(source));
