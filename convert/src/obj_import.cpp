@@ -45,9 +45,6 @@ using detail::utc_now_iso8601;
 namespace {
 
 constexpr double kMaxReflectance = 0.999;         ///< radiosity needs ρ < 1
-constexpr double kDegenerateAreaFactor = 1e-12;   ///< × bbox diagonal², m²
-constexpr double kNonPlanarTolerance = 1e-4;      ///< × polygon extent, before a note
-constexpr std::size_t kNotesPerKind = 5;          ///< repeated healing notes shown per kind
 constexpr std::size_t kUnknownKeywordNotes = 20;  ///< distinct unknown statements shown
 constexpr const char* kDefaultMaterialName = "default";
 
@@ -266,28 +263,6 @@ class IgnoredStatements {
     std::vector<Entry> m_entries;
 };
 
-/// Healing notes of one kind: the first few verbatim, then a count of the rest.
-class CappedNotes {
-  public:
-    CappedNotes(std::vector<std::string>& notes, std::string rest_label)
-        : m_notes(notes), m_rest_label(std::move(rest_label)) {}
-
-    void add(std::string note) {
-        if (m_count++ < kNotesPerKind) m_notes.push_back(std::move(note));
-    }
-
-    void finish(const std::string& file) {
-        if (m_count > kNotesPerKind) {
-            m_notes.push_back(located(
-                file, 0, std::to_string(m_count - kNotesPerKind) + " more " + m_rest_label));
-        }
-    }
-
-  private:
-    std::vector<std::string>& m_notes;
-    std::string m_rest_label;
-    std::size_t m_count = 0;
-};
 
 // ---------------------------------------------------------------------------------------------
 // MTL
@@ -770,169 +745,6 @@ class ObjParser {
     bool m_slot_valid = false;
 };
 
-// ---------------------------------------------------------------------------------------------
-// Healing
-
-/// Exact position key for welding: bit patterns with -0 folded onto +0.
-struct PositionKey {
-    std::array<std::uint64_t, 3> bits;
-    bool operator==(const PositionKey&) const = default;
-};
-
-PositionKey position_key(const glm::dvec3& p) {
-    const auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x == 0.0 ? 0.0 : x); };
-    return {{bits(p.x), bits(p.y), bits(p.z)}};
-}
-
-std::uint64_t mix(std::uint64_t h) {
-    // splitmix64 finaliser
-    h ^= h >> 30;
-    h *= 0xbf58476d1ce4e5b9ULL;
-    h ^= h >> 27;
-    h *= 0x94d049bb133111ebULL;
-    h ^= h >> 31;
-    return h;
-}
-
-struct PositionKeyHash {
-    std::size_t operator()(const PositionKey& k) const {
-        return static_cast<std::size_t>(mix(k.bits[0] ^ mix(k.bits[1] ^ mix(k.bits[2]))));
-    }
-};
-
-struct TriangleKeyHash {
-    std::size_t operator()(const std::array<std::uint32_t, 3>& k) const {
-        return static_cast<std::size_t>(mix((std::uint64_t{k[0]} << 32 | k[1]) ^
-                                            mix(std::uint64_t{k[2]} + 0x9e3779b97f4a7c15ULL)));
-    }
-};
-
-double triangle_area(const std::vector<glm::dvec3>& p, const glm::u32vec3& t) {
-    return 0.5 * glm::length(glm::cross(p[t.y] - p[t.x], p[t.z] - p[t.x]));
-}
-
-double orient(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
-    return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-}
-
-/// Triangulates one polygon (welded vertex ids, no two cyclically consecutive ids equal, at
-/// least 3) by ear clipping in its Newell plane. Appends exactly ids.size() - 2 triangles in
-/// the polygon's winding. Returns how far the farthest corner lies from the best-fit plane
-/// relative to the polygon's extent (0 for triangles).
-double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<std::uint32_t>& ids,
-                   std::vector<glm::u32vec3>& out) {
-    const std::size_t n = ids.size();
-    if (n == 3) {
-        out.emplace_back(ids[0], ids[1], ids[2]);
-        return 0.0;
-    }
-    // Compute the centroid _c_ and the Newell normal _normal_ (twice the vector area)
-    glm::dvec3 c{0.0};
-    for (const std::uint32_t id : ids) c += positions[id];
-    c /= static_cast<double>(n);
-    glm::dvec3 normal{0.0};
-    for (std::size_t i = 0; i < n; ++i) {
-        normal += glm::cross(positions[ids[i]] - c, positions[ids[(i + 1) % n]] - c);
-    }
-    const double length = glm::length(normal);
-    if (!(length > 0.0) || !std::isfinite(length)) {
-        // No plane (all corners on a line): a fan; the caller drops the zero-area triangles
-        for (std::size_t i = 1; i + 1 < n; ++i) out.emplace_back(ids[0], ids[i], ids[i + 1]);
-        return 0.0;
-    }
-    const glm::dvec3 w = normal / length;
-
-    // Build the plane basis _u_, _v_ with u × v = w, so the polygon projects counter-clockwise
-    const glm::dvec3 axis = std::abs(w.x) <= std::abs(w.y) && std::abs(w.x) <= std::abs(w.z)
-                                ? glm::dvec3{1.0, 0.0, 0.0}
-                                : (std::abs(w.y) <= std::abs(w.z) ? glm::dvec3{0.0, 1.0, 0.0}
-                                                                  : glm::dvec3{0.0, 0.0, 1.0});
-    const glm::dvec3 u = glm::normalize(glm::cross(w, axis));
-    const glm::dvec3 v = glm::cross(w, u);
-    std::vector<glm::dvec2> q(n);
-    glm::dvec3 lo{std::numeric_limits<double>::max()};
-    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
-    double off_plane = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-        const glm::dvec3 d = positions[ids[i]] - c;
-        q[i] = {glm::dot(d, u), glm::dot(d, v)};
-        off_plane = std::max(off_plane, std::abs(glm::dot(d, w)));
-        lo = glm::min(lo, positions[ids[i]]);
-        hi = glm::max(hi, positions[ids[i]]);
-    }
-    const double extent = glm::length(hi - lo);
-
-    // Clip ears from a doubly linked ring of corners
-    std::vector<std::size_t> prev(n);
-    std::vector<std::size_t> next(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        prev[i] = (i + n - 1) % n;
-        next[i] = (i + 1) % n;
-    }
-    // Does a corner other than a, b, c lie in triangle abc (closed if `inclusive`)? Corners at
-    // the same vertex as a, b or c (the two ends of a bridge to a hole) do not count.
-    const auto blocked = [&](std::size_t a, std::size_t b, std::size_t cc, bool inclusive) {
-        for (std::size_t r = next[cc]; r != a; r = next[r]) {
-            if (ids[r] == ids[a] || ids[r] == ids[b] || ids[r] == ids[cc]) continue;
-            const double o1 = orient(q[a], q[b], q[r]);
-            const double o2 = orient(q[b], q[cc], q[r]);
-            const double o3 = orient(q[cc], q[a], q[r]);
-            const bool inside = inclusive ? (o1 >= 0.0 && o2 >= 0.0 && o3 >= 0.0)
-                                          : (o1 > 0.0 && o2 > 0.0 && o3 > 0.0);
-            if (inside) return true;
-        }
-        return false;
-    };
-    const auto clip = [&](std::size_t b) {
-        out.emplace_back(ids[prev[b]], ids[b], ids[next[b]]);
-        next[prev[b]] = next[b];
-        prev[next[b]] = prev[b];
-    };
-    std::size_t remaining = n;
-    std::size_t cur = 0;
-    std::size_t misses = 0;
-    while (remaining > 3) {
-        const std::size_t a = prev[cur];
-        const std::size_t b = cur;
-        const std::size_t cc = next[cur];
-        if (orient(q[a], q[b], q[cc]) > 0.0 && !blocked(a, b, cc, true)) {
-            clip(b);
-            --remaining;
-            cur = cc;
-            misses = 0;
-            continue;
-        }
-        cur = cc;
-        if (++misses < remaining) continue;
-        // No clean ear in a whole turn (self-intersection, collinear runs, rounding): clip a
-        // convex-or-flat corner with no corner strictly inside, else the most convex corner
-        std::size_t pick = n;
-        std::size_t most_convex = cur;
-        double best = std::numeric_limits<double>::lowest();
-        std::size_t r = cur;
-        for (std::size_t k = 0; k < remaining; ++k, r = next[r]) {
-            const double o = orient(q[prev[r]], q[r], q[next[r]]);
-            if (o > best) {
-                best = o;
-                most_convex = r;
-            }
-            if (pick == n && o >= 0.0 && !blocked(prev[r], r, next[r], false)) pick = r;
-        }
-        if (pick == n) pick = most_convex;
-        cur = next[pick];
-        clip(pick);
-        --remaining;
-        misses = 0;
-    }
-    out.emplace_back(ids[prev[cur]], ids[cur], ids[next[cur]]);
-    return extent > 0.0 ? off_plane / extent : 0.0;
-}
-
-std::string format_general(double x) {
-    std::array<char, 32> buf{};
-    std::snprintf(buf.data(), buf.size(), "%.3g", x);
-    return buf.data();
-}
 
 }  // namespace
 
@@ -964,9 +776,15 @@ std::string ImportReport::to_string() const {
     row("triangles kept", triangles);
     row("polygons triangulated", polygons_triangulated);
     row("vertices welded", vertices_welded);
+    row("  of them within the weld distance", vertices_welded_near);
+    s += "weld distance: " + std::to_string(weld_distance) + " m\n";
     row("degenerate triangles dropped", degenerate_dropped);
     row("duplicate triangles dropped", duplicates_dropped);
     row("unused vertices", unused_vertices);
+    row("non-planar polygons", non_planar_polygons);
+    row("triangles flipped to consistent winding", triangles_flipped);
+    row("  in surfaces", surfaces_flipped);
+    row("coplanar overlapping triangle pairs (z-fighting)", overlapping_pairs);
     row("emitter triangles", emitter_triangles);
     row("notes", notes.size());
     for (const std::string& note : notes) {
@@ -977,7 +795,10 @@ std::string ImportReport::to_string() const {
     return s;
 }
 
-ImportResult import_obj(const std::filesystem::path& path, const ImportOptions& options) {
+namespace detail {
+
+RawModel read_obj(const std::filesystem::path& path, const ImportOptions& options,
+                  std::vector<std::string>& notes) {
     const std::string unit = options.unit.empty() ? "m" : options.unit;
     const char up = options.up == 0 ? 'z' : options.up;
     const UnitScale scale = unit_scale(unit);  // throws std::invalid_argument
@@ -987,207 +808,54 @@ ImportResult import_obj(const std::filesystem::path& path, const ImportOptions& 
     const std::string file = path.string();
     const std::string bytes = read_file_bytes(path, file, "file");
 
-    ImportResult result;
-    ImportReport& report = result.report;
-
     // Read the statements of the OBJ file and its material libraries
     MaterialLibrary library;
-    ObjParser parser(file, path.parent_path(), path.stem().string(), scale, up, library,
-                     report.notes);
-    const ObjData data = parser.parse(bytes);
-    report.vertices_read = data.positions.size();
-    report.faces_read = data.faces.size();
+    ObjParser parser(file, path.parent_path(), path.stem().string(), scale, up, library, notes);
+    ObjData data = parser.parse(bytes);
     if (data.faces.empty()) throw ImportError(file, 0, "no faces to import");
-
-    // Weld exactly equal positions across the whole file
-    std::vector<glm::dvec3> welded;
-    std::vector<std::uint32_t> weld_of(data.positions.size());
-    {
-        std::unordered_map<PositionKey, std::uint32_t, PositionKeyHash> index;
-        index.reserve(data.positions.size());
-        for (std::size_t i = 0; i < data.positions.size(); ++i) {
-            const auto [it, inserted] = index.try_emplace(
-                position_key(data.positions[i]), static_cast<std::uint32_t>(welded.size()));
-            if (inserted) welded.push_back(data.positions[i]);
-            weld_of[i] = it->second;
-        }
-    }
-    report.vertices_welded = data.positions.size() - welded.size();
-
-    // Count unused file vertices and bound the used ones
-    std::vector<bool> used(data.positions.size(), false);
-    for (const std::uint32_t corner : data.corners) used[corner] = true;
-    report.unused_vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), false));
-    glm::dvec3 lo{std::numeric_limits<double>::max()};
-    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
-    for (std::size_t i = 0; i < used.size(); ++i) {
-        if (!used[i]) continue;
-        lo = glm::min(lo, data.positions[i]);
-        hi = glm::max(hi, data.positions[i]);
-    }
-    const double diagonal = glm::length(hi - lo);
-    const double min_area = kDegenerateAreaFactor * diagonal * diagonal;
-
-    // Triangulate each face, then drop degenerate and duplicate triangles
-    CappedNotes degenerate_notes(report.notes, "faces with degenerate triangles");
-    CappedNotes duplicate_notes(report.notes, "faces with duplicate triangles");
-    CappedNotes planarity_notes(report.notes, "non-planar polygons triangulated");
-    std::vector<std::vector<glm::u32vec3>> slot_triangles(data.slots.size());
-    std::unordered_map<std::array<std::uint32_t, 3>, std::size_t, TriangleKeyHash> seen;
-    std::vector<std::uint32_t> ids;
-    std::vector<glm::u32vec3> triangles;
-    for (const FaceRecord& face : data.faces) {
-        if (face.count > 3) ++report.polygons_triangulated;
-        // Drop corners repeating the previous one (each would make one zero-area triangle)
-        ids.clear();
-        for (std::size_t k = 0; k < face.count; ++k) {
-            const std::uint32_t id = weld_of[data.corners[face.first + k]];
-            if (ids.empty() || ids.back() != id) ids.push_back(id);
-        }
-        while (ids.size() > 1 && ids.front() == ids.back()) ids.pop_back();
-        if (ids.size() < 3) {
-            report.degenerate_dropped += face.count - 2;
-            degenerate_notes.add(located(file, face.line,
-                                         "face has fewer than 3 distinct vertices; " +
-                                             std::to_string(face.count - 2) +
-                                             " degenerate triangle(s) dropped"));
-            continue;
-        }
-        if (ids.size() < face.count) {
-            report.degenerate_dropped += face.count - ids.size();
-            degenerate_notes.add(located(file, face.line,
-                                         "repeated vertex in face; " +
-                                             std::to_string(face.count - ids.size()) +
-                                             " degenerate triangle(s) dropped"));
-        }
-        triangles.clear();
-        const double off_plane = triangulate(welded, ids, triangles);
-        if (off_plane > kNonPlanarTolerance) {
-            planarity_notes.add(located(file, face.line,
-                                        "polygon not planar (corners " +
-                                            format_general(off_plane * 100.0) +
-                                            "% of its size off the best-fit plane); "
-                                            "triangulated"));
-        }
-        std::size_t degenerate = 0;
-        std::size_t duplicate = 0;
-        std::size_t duplicate_of = 0;  // line of the first earlier triangle repeated
-        for (const glm::u32vec3& t : triangles) {
-            const bool repeated = t.x == t.y || t.y == t.z || t.x == t.z;
-            const double area = repeated ? 0.0 : triangle_area(welded, t);
-            if (repeated || area < min_area || area == 0.0) {
-                ++degenerate;
-                continue;
-            }
-            std::array<std::uint32_t, 3> key{t.x, t.y, t.z};
-            std::sort(key.begin(), key.end());
-            const auto [it, inserted] = seen.try_emplace(key, face.line);
-            if (!inserted) {
-                if (duplicate++ == 0) duplicate_of = it->second;
-                continue;
-            }
-            slot_triangles[face.slot].push_back(t);
-        }
-        if (degenerate > 0) {
-            report.degenerate_dropped += degenerate;
-            degenerate_notes.add(located(
-                file, face.line,
-                std::to_string(degenerate) + " degenerate (zero-area) triangle(s) dropped"));
-        }
-        if (duplicate > 0) {
-            report.duplicates_dropped += duplicate;
-            duplicate_notes.add(located(file, face.line,
-                                        std::to_string(duplicate) +
-                                            " triangle(s) repeating the face of line " +
-                                            std::to_string(duplicate_of) + " dropped"));
-        }
-    }
-    degenerate_notes.finish(file);
-    duplicate_notes.finish(file);
-    planarity_notes.finish(file);
 
     // Report material names no library defines
     for (const auto& [name, line] : data.usemtl) {
         if (library.find(name) == nullptr) {
-            report.notes.push_back(located(file, line,
-                                           "material " + quote_token(name) +
-                                               " is not defined; it gets the default "
-                                               "(reflectance 0.5, emittance 0, opacity 1)"));
+            notes.push_back(located(file, line,
+                                    "material " + quote_token(name) +
+                                        " is not defined; it gets the default "
+                                        "(reflectance 0.5, emittance 0, opacity 1)"));
         }
     }
     if (data.first_face_without_usemtl > 0 && library.find(kDefaultMaterialName) == nullptr) {
-        report.notes.push_back(located(file, data.first_face_without_usemtl,
-                                       "faces without usemtl get the default material "
-                                       "(reflectance 0.5, emittance 0, opacity 1)"));
+        notes.push_back(located(file, data.first_face_without_usemtl,
+                                "faces without usemtl get the default material "
+                                "(reflectance 0.5, emittance 0, opacity 1)"));
     }
 
-    // Assemble surfaces with compact vertex arrays, and the materials they use
-    visdb::Scene& scene = result.scene;
-    std::unordered_map<std::string, std::uint32_t> material_index;
-    std::vector<std::uint32_t> local(welded.size(), std::numeric_limits<std::uint32_t>::max());
-    for (std::size_t s = 0; s < data.slots.size(); ++s) {
-        const Slot& slot = data.slots[s];
-        std::vector<glm::u32vec3>& tris = slot_triangles[s];
-        if (tris.empty()) {
-            report.notes.push_back(located(file, slot.first_line,
-                                           "surface " + quote_token(slot.name) + " with material " +
-                                               quote_token(slot.material) +
-                                               " has no triangles left; omitted"));
-            continue;
-        }
-        const auto [mit, added] = material_index.try_emplace(
-            slot.material, static_cast<std::uint32_t>(scene.materials.size()));
-        if (added) {
-            const MtlEntry* entry = library.find(slot.material);
-            visdb::Material m = entry != nullptr ? entry->material : visdb::Material{};
-            m.name = slot.material;
-            scene.materials.push_back(std::move(m));
-        }
-        visdb::Surface surface;
-        surface.name = slot.name;
-        surface.layer = slot.layer;
-        surface.material = mit->second;
-        surface.source = 0;
-        std::vector<std::uint32_t> touched;
-        for (glm::u32vec3& t : tris) {
-            for (int k = 0; k < 3; ++k) {
-                std::uint32_t& l = local[t[k]];
-                if (l == std::numeric_limits<std::uint32_t>::max()) {
-                    l = static_cast<std::uint32_t>(surface.mesh.positions.size());
-                    surface.mesh.positions.push_back(welded[t[k]]);
-                    touched.push_back(t[k]);
-                }
-                t[k] = l;
-            }
-        }
-        for (const std::uint32_t id : touched)
-            local[id] = std::numeric_limits<std::uint32_t>::max();
-        surface.mesh.triangles = std::move(tris);
-        report.triangles += surface.mesh.triangles.size();
-        if (scene.materials[surface.material].is_emitter()) {
-            report.emitter_triangles += surface.mesh.triangles.size();
-        }
-        scene.surfaces.push_back(std::move(surface));
+    RawModel raw;
+    raw.file = file;
+    raw.positions = std::move(data.positions);
+    raw.corners = std::move(data.corners);
+    raw.faces.reserve(data.faces.size());
+    for (const FaceRecord& f : data.faces) raw.faces.push_back({f.line, f.slot, f.first, f.count});
+    raw.slots.reserve(data.slots.size());
+    for (Slot& slot : data.slots)
+        raw.slots.push_back({std::move(slot.name), std::move(slot.layer), std::move(slot.material),
+                             slot.first_line});
+    for (const RawSlot& slot : raw.slots) {
+        const MtlEntry* entry = library.find(slot.material);
+        if (entry == nullptr) continue;
+        visdb::Material m = entry->material;
+        m.name = slot.material;
+        raw.materials.push_back(std::move(m));
     }
-    if (report.triangles == 0) {
-        throw ImportError(file, 0,
-                          "no triangles left after healing (" +
-                              std::to_string(report.degenerate_dropped) + " degenerate, " +
-                              std::to_string(report.duplicates_dropped) + " duplicate)");
-    }
-
-    // Record where the scene came from
-    visdb::Source source;
-    source.path = file;
-    source.format = "obj";
-    source.checksum = fnv1a64_hex(bytes);
-    source.size_bytes = bytes.size();
-    source.unit = unit;
-    source.up_axis = std::string(1, up);
-    source.imported_at = utc_now_iso8601();
-    source.report = report.to_string();
-    scene.sources.push_back(std::move(source));
-    return result;
+    raw.where = [file](std::size_t line) { return line > 0 ? file + ":" + std::to_string(line) : file; };
+    raw.source.path = file;
+    raw.source.format = "obj";
+    raw.source.checksum = fnv1a64_hex(bytes);
+    raw.source.size_bytes = bytes.size();
+    raw.source.unit = unit;
+    raw.source.up_axis = std::string(1, up);
+    return raw;
 }
+
+}  // namespace detail
 
 }  // namespace abrad::convert

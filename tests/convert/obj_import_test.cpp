@@ -370,9 +370,9 @@ TEST(ObjImport, HealingCounts) {
     EXPECT_EQ(r.scene.surfaces[0].mesh.positions.size(), 4u);  // compact: welded, used only
 
     const std::string f = path.string();
-    EXPECT_TRUE(has_note(rep, f + ":10: 1 triangle(s) repeating the face of line 9 dropped"))
+    EXPECT_TRUE(has_note(rep, f + ":10: 1 triangle(s) repeating the face at " + f + ":9 dropped"))
         << rep.to_string();
-    EXPECT_TRUE(has_note(rep, f + ":11: 1 triangle(s) repeating the face of line 8 dropped"))
+    EXPECT_TRUE(has_note(rep, f + ":11: 1 triangle(s) repeating the face at " + f + ":8 dropped"))
         << rep.to_string();
     EXPECT_TRUE(has_note(rep, f + ":12: 1 degenerate")) << rep.to_string();
     EXPECT_TRUE(has_note(rep, f + ":13: face has fewer than 3 distinct vertices"))
@@ -493,9 +493,9 @@ TEST(ObjImport, CornellBoxOriginal) {
     EXPECT_GT(rep.vertices_welded, 0u);
     const std::string f = path.string();
     EXPECT_TRUE(has_note(rep, f + ":62: polygon not planar")) << rep.to_string();  // left wall
-    EXPECT_TRUE(has_note(rep, f + ":107: 2 triangle(s) repeating the face of line 93"))
+    EXPECT_TRUE(has_note(rep, f + ":107: 2 triangle(s) repeating the face at " + f + ":93"))
         << rep.to_string();  // short box bottom = its right face
-    EXPECT_TRUE(has_note(rep, f + ":155: 2 triangle(s) repeating the face of line 148"))
+    EXPECT_TRUE(has_note(rep, f + ":155: 2 triangle(s) repeating the face at " + f + ":148"))
         << rep.to_string();  // tall box bottom = its front face
 
     const visdb::Material* light = find_material(r.scene, "light");
