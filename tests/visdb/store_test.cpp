@@ -243,6 +243,17 @@ void expect_same_scene(const visdb::Scene& expected, const visdb::Scene& actual)
         EXPECT_EQ(bits(e.up), bits(a.up));
         EXPECT_EQ(bits(e.fov_y_deg), bits(a.fov_y_deg));
     }
+    ASSERT_EQ(expected.grids.size(), actual.grids.size());
+    for (std::size_t i = 0; i < expected.grids.size(); ++i) {
+        const auto& e = expected.grids[i];
+        const auto& a = actual.grids[i];
+        SCOPED_TRACE("grid " + std::to_string(i));
+        EXPECT_EQ(e.name, a.name);
+        EXPECT_EQ(bits(glm::dvec3(e.min, e.z)), bits(glm::dvec3(a.min, a.z)));
+        EXPECT_EQ(bits(glm::dvec3(e.max, e.spacing)), bits(glm::dvec3(a.max, a.spacing)));
+        EXPECT_EQ(bits(e.normal), bits(a.normal));
+    }
+    EXPECT_EQ(expected.emittance_unit, actual.emittance_unit);
 }
 
 void expect_same_bake(const visdb::Bake& expected, const visdb::Bake& actual) {
@@ -320,6 +331,8 @@ visdb::Scene make_scene() {
                              55.0});
     scene.cameras.push_back(
         {"top", {0.0, 0.0, 100.0}, {0.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, 1.0 / 7.0});
+    scene.grids.push_back({"work plane", {kEast + 0.5, kNorth + 0.5}, {kEast + 2.5, kNorth + 1.0 / 3.0 + 1.0},
+                           0.8, 0.25, {0.0, 0.0, 1.0}});
     return scene;
 }
 
@@ -619,8 +632,53 @@ TEST(Store, FailingImportWritesNothing) {
     EXPECT_EQ(store.load_scene().sources.size(), 2u);
 }
 
+TEST(Store, EmittanceUnitIsKeptAndNeverMixed) {
+    ScratchDir dir;
+    const std::string path = dir.file("units.visdb");
+    visdb::Scene lit = make_scene();  // has an emitter (the lamp)
+    lit.emittance_unit = "lm/m2";
+    auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
+    EXPECT_EQ(store.load_scene().emittance_unit, "W/m2");  // the default of an empty database
+    store.add_import(lit);
+    EXPECT_EQ(store.load_scene().emittance_unit, "lm/m2");
+
+    // A radiometric import without emitters joins; one with emitters is refused, unwritten
+    visdb::Scene dark = make_scene();
+    dark.materials[2].emittance = visdb::Rgb(0.0);
+    store.add_import(dark);
+    EXPECT_EQ(store.load_scene().emittance_unit, "lm/m2");
+    const std::string before = dump(path);
+    expect_store_error([&] { store.add_import(make_scene()); },
+                       {path, "W/m2", "lm/m2", "cannot be mixed"});
+    EXPECT_EQ(dump(path), before);
+
+    visdb::Scene odd = make_scene();
+    odd.emittance_unit = "cd";
+    expect_store_error([&] { store.add_import(odd); }, {path, "'cd'"});
+}
+
 // ---------------------------------------------------------------------------------------
 // Schema and opening
+
+TEST(Store, Version1DatabaseMigratesKeepingItsScene) {
+    ScratchDir dir;
+    const std::string path = dir.file("v1.visdb");
+    visdb::Scene scene = make_scene();
+    scene.grids.clear();
+    visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(scene);
+    // Turn the file back into what schema version 1 wrote
+    RawDb(path).exec(
+        "DROP TABLE grids; UPDATE meta SET value = '1' WHERE key = 'schema_version'; "
+        "PRAGMA user_version = 1");
+    expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly); },
+                       {path, "read-write once to migrate"});
+    auto store = visdb::Store::open(path, OpenMode::ReadWrite);
+    EXPECT_EQ(store.schema_version(), visdb::kSchemaVersion);
+    expect_same_scene(scene, store.load_scene());
+    visdb::Scene with_grid = make_scene();
+    store.add_import(with_grid);
+    EXPECT_EQ(store.load_scene().grids.size(), 1u);
+}
 
 TEST(Store, SchemaIsVersionedAndMarked) {
     ScratchDir dir;

@@ -144,6 +144,23 @@ CREATE TABLE bake_meshes(
     radiosity        BLOB NOT NULL
 );
 )sql"},
+    {1, R"sql(
+-- Calculation grids (work planes) declared by scene files; the scene's emittance unit lives in
+-- meta under 'emittance_unit' ('W/m2' when absent).
+CREATE TABLE grids(
+    id      INTEGER PRIMARY KEY,
+    name    TEXT NOT NULL,
+    min_x   REAL NOT NULL,
+    min_y   REAL NOT NULL,
+    max_x   REAL NOT NULL,
+    max_y   REAL NOT NULL,
+    z       REAL NOT NULL,
+    spacing REAL NOT NULL,
+    normal_x REAL NOT NULL,
+    normal_y REAL NOT NULL,
+    normal_z REAL NOT NULL
+);
+)sql"},
 };
 
 static_assert(std::size(kMigrations) == static_cast<std::size_t>(kSchemaVersion),
@@ -653,6 +670,24 @@ Scene Store::load_scene() const {
             cam.fov_y_deg = q.real(10);
         }
     }
+    {
+        Statement q(c,
+                    "SELECT name, min_x, min_y, max_x, max_y, z, spacing, normal_x, normal_y, "
+                    "normal_z FROM grids ORDER BY id");
+        while (q.step()) {
+            CalculationGrid& g = scene.grids.emplace_back();
+            g.name = q.text(0);
+            g.min = glm::dvec2(q.real(1), q.real(2));
+            g.max = glm::dvec2(q.real(3), q.real(4));
+            g.z = q.real(5);
+            g.spacing = q.real(6);
+            g.normal = glm::dvec3(q.real(7), q.real(8), q.real(9));
+        }
+    }
+    {
+        Statement q(c, "SELECT value FROM meta WHERE key = 'emittance_unit'");
+        if (q.step()) scene.emittance_unit = q.text(0);
+    }
     transaction.commit();
     return scene;
 }
@@ -676,9 +711,48 @@ void Store::add_import(const Scene& imported) {
             c.fail("import: surface '" + s.name + "' has a triangle index out of range");
         }
     }
+    if (imported.emittance_unit != "W/m2" && imported.emittance_unit != "lm/m2") {
+        c.fail("import: emittance unit '" + imported.emittance_unit +
+               "' is neither 'W/m2' nor 'lm/m2'");
+    }
+    const auto has_emitters = [](const Scene& scene) {
+        for (const Surface& s : scene.surfaces)
+            if (scene.materials[s.material].is_emitter()) return true;
+        return false;
+    };
 
     try {
         Transaction transaction(c, Transaction::Kind::Write);
+
+        // One emittance unit per database: an import with emitters in the other unit is refused
+        {
+            std::string stored = "W/m2";
+            {
+                Statement q(c, "SELECT value FROM meta WHERE key = 'emittance_unit'");
+                if (q.step()) stored = q.text(0);
+            }
+            if (imported.emittance_unit != stored) {
+                bool stored_emitters = false;
+                {
+                    Statement q(c, "SELECT 1 FROM materials WHERE emittance_r > 0 OR "
+                                   "emittance_g > 0 OR emittance_b > 0 LIMIT 1");
+                    stored_emitters = q.step();
+                }
+                const bool new_emitters = has_emitters(imported);
+                if (stored_emitters && new_emitters) {
+                    c.fail("import: its emitters are in " + imported.emittance_unit +
+                           " but the database's are in " + stored +
+                           "; radiometric and photometric emitters cannot be mixed");
+                }
+                if (!stored_emitters && (new_emitters || imported.emittance_unit != "W/m2")) {
+                    Statement upsert(c,
+                                     "INSERT INTO meta(key, value) VALUES ('emittance_unit', ?1) "
+                                     "ON CONFLICT(key) DO UPDATE SET value = excluded.value");
+                    upsert.bind(1, imported.emittance_unit);
+                    upsert.run();
+                }
+            }
+        }
 
         // Insert sources and materials, collecting their new ids
         std::vector<std::int64_t> source_ids;
@@ -751,6 +825,23 @@ void Store::add_import(const Scene& imported) {
                     insert.bind(8 + i, cam.up[i]);
                 }
                 insert.bind(11, cam.fov_y_deg);
+                insert.run();
+            }
+        }
+        {
+            Statement insert(c,
+                             "INSERT INTO grids(name, min_x, min_y, max_x, max_y, z, spacing, "
+                             "normal_x, normal_y, normal_z) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, "
+                             "?8, ?9, ?10)");
+            for (const CalculationGrid& g : imported.grids) {
+                insert.bind(1, g.name);
+                insert.bind(2, g.min.x);
+                insert.bind(3, g.min.y);
+                insert.bind(4, g.max.x);
+                insert.bind(5, g.max.y);
+                insert.bind(6, g.z);
+                insert.bind(7, g.spacing);
+                for (glm::length_t i = 0; i < 3; ++i) insert.bind(8 + i, g.normal[i]);
                 insert.run();
             }
         }

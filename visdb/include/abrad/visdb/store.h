@@ -40,7 +40,7 @@ struct BakeSummary {
 };
 
 /// Current schema version written by this build.
-inline constexpr int kSchemaVersion = 1;
+inline constexpr int kSchemaVersion = 2;
 
 /// A handle on one .visdb file. Move-only.
 class Store {
