@@ -24,7 +24,7 @@
 #include <CLI/CLI.hpp>
 #include <glm/geometric.hpp>
 
-#include "abrad/convert/obj_import.h"
+#include "abrad/convert/import.h"
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
@@ -53,8 +53,10 @@ struct CommandError {
 
 struct ImportArgs {
     std::vector<std::string> models;
-    std::string unit = "m";
-    std::string up = "z";
+    std::string unit;  ///< empty: the scene file's, else the file's own, else metres
+    std::string up;    ///< empty: the scene file's, else the format's convention
+    std::optional<double> weld;
+    std::string scene;
 };
 
 struct BakeArgs {
@@ -74,12 +76,18 @@ struct BakeArgs {
 };
 
 void add_import_options(CLI::App& app, ImportArgs& a) {
-    app.add_option("--unit", a.unit, "Length unit of the model files")
-        ->check(CLI::IsMember({"mm", "cm", "m", "in", "ft"}))
-        ->capture_default_str();
-    app.add_option("--up", a.up, "Up axis of the model files (y: rotated to Z up)")
-        ->check(CLI::IsMember({"y", "z"}))
-        ->capture_default_str();
+    app.add_option("--unit", a.unit,
+                   "Length unit of the model files (default: the scene file's, else the unit the "
+                   "file declares, else m)")
+        ->check(CLI::IsMember({"mm", "cm", "m", "in", "ft"}));
+    app.add_option("--up", a.up,
+                   "Up axis of the model files, y is rotated to Z up (default: the scene file's, "
+                   "else the format's: glTF y, Collada/FBX as declared, others z)")
+        ->check(CLI::IsMember({"y", "z"}));
+    app.add_option("--weld", a.weld,
+                   "Weld vertices closer than this fraction of the model's bounding-box diagonal "
+                   "(default 1e-6; 0 welds only identical positions)")
+        ->check(CLI::Range(0.0, 1e-2));
 }
 
 void add_bake_options(CLI::App& app, BakeArgs& a) {
@@ -180,16 +188,16 @@ private:
 visdb::Scene read_models(const ImportArgs& a) {
     visdb::Scene all;
     convert::ImportOptions options;
-    options.unit = a.unit;
-    options.up = a.up.front();
+    if (!a.unit.empty()) options.unit = a.unit;
+    if (!a.up.empty()) options.up = a.up.front();
+    if (a.weld) options.weld_tolerance = *a.weld;
     for (const std::string& model : a.models) {
-        std::string ext = fs::path(model).extension().string();
-        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-        if (ext != ".obj")
-            bad_input(model + ": unsupported format '" + ext + "' (this build imports OBJ/MTL)");
         convert::ImportResult r;
         try {
-            r = convert::import_obj(model, options);
+            const auto start = std::chrono::steady_clock::now();
+            r = convert::import_model(model, options);
+            std::fprintf(stderr, "import: %s read and healed in %.2f s\n", model.c_str(),
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         } catch (const convert::ImportError& e) {
             bad_input(e.what());
         }
@@ -359,15 +367,20 @@ void print_info(const std::string& db) {
             light_area += area;
             light_power += area * (m.emittance.x + m.emittance.y + m.emittance.z) / 3.0;
             std::cout << ", emits E (" << m.emittance.x << " " << m.emittance.y << " " << m.emittance.z
-                      << ") W/m2 over " << area << " m2";
+                      << ") " << scene.emittance_unit << " over " << area << " m2";
         }
         std::cout << "\n";
     }
+    const bool photometric = scene.emittance_unit == "lm/m2";
     std::cout << "lights: " << light_tris << " triangles, " << light_area << " m2, " << light_power
-              << " W (mean over RGB)\n";
+              << (photometric ? " lm" : " W") << " (mean over RGB)\n";
     std::cout << "cameras (" << scene.cameras.size() << ")";
     for (const auto& c : scene.cameras) std::cout << " " << c.name;
     std::cout << "\n";
+    std::cout << "grids (" << scene.grids.size() << "):\n";
+    for (const auto& g : scene.grids)
+        std::cout << "  " << g.name << ": x " << g.min.x << ".." << g.max.x << ", y " << g.min.y
+                  << ".." << g.max.y << ", z " << g.z << ", spacing " << g.spacing << " m\n";
     const auto bakes = store.list_bakes();
     std::cout << "bakes (" << bakes.size() << "):\n";
     for (const auto& b : bakes) {
@@ -476,7 +489,7 @@ int run_cli(int argc, char** argv) {
     ImportArgs import_args;
     std::string db;
     auto* import_cmd = app.add_subcommand("import", "Import model files into a visual database");
-    import_cmd->add_option("MODEL", import_args.models, "OBJ/MTL model files")->required();
+    import_cmd->add_option("MODEL", import_args.models, "Model files: obj, gltf, glb, 3ds, dae, fbx, dxf, ifc, stl, ply, off")->required();
     import_cmd->add_option("--db", db, "Visual database (.visdb), created when missing")->required();
     add_import_options(*import_cmd, import_args);
 
@@ -516,7 +529,7 @@ int run_cli(int argc, char** argv) {
 
     std::string out_dir;
     auto* run_cmd = app.add_subcommand("run", "Import, bake and export in one go");
-    run_cmd->add_option("MODEL", import_args.models, "OBJ/MTL model files")->required();
+    run_cmd->add_option("MODEL", import_args.models, "Model files: obj, gltf, glb, 3ds, dae, fbx, dxf, ifc, stl, ply, off")->required();
     run_cmd->add_option("--out", out_dir, "Output directory (STEM.visdb, STEM.ply, STEM.obj)")->required();
     add_import_options(*run_cmd, import_args);
     add_bake_options(*run_cmd, bake_args);

@@ -688,7 +688,7 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
 
     visdb::Bake result;
     result.name = options.name;
-    result.unit = "W/m2";
+    result.unit = scene.emittance_unit == "lm/m2" ? "lux" : "W/m2";
     result.parameters = {{"method", to_string(options.method)},
                          {"resolution", std::to_string(options.resolution)},
                          {"subpixels", options.method == Visibility::ABuffer

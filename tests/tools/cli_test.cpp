@@ -308,7 +308,7 @@ TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
     const std::string db = baked_db();
     const Result info = run("info --db " + db);
     ASSERT_EQ(info.status, 0) << info.output;
-    for (const char* needle : {"schema 1", "paper_occluder.obj", "triangles 3213", "lights: 2 triangles",
+    for (const char* needle : {"schema 2", "paper_occluder.obj", "triangles 3213", "lights: 2 triangles",
                                "bakes (1)", "first", "method=abuffer", "resolution=50", "seconds_total="})
         EXPECT_NE(info.output.find(needle), std::string::npos) << needle << "\n" << info.output;
     // ASCII export and binary export carry the same numbers of elements
