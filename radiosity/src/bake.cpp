@@ -16,6 +16,9 @@
 #include <unordered_set>
 #include <vector>
 
+#include <limits>
+
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
@@ -324,7 +327,48 @@ void validate(const BakeOptions& o) {
         throw BakeError("--refine-min-edge must be > 0 metres, got " + std::to_string(o.refine_min_edge));
 }
 
+namespace {
+
+visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
+                      const ProgressFn& progress);
+
+/// The centre of the scene's bounding box rounded to whole metres: the origin of the local
+/// frame the bake works in. Subtracting it from survey coordinates (1e6 m) is exact (Sterbenz),
+/// and leaves the hemicube's float depths, the mesher's plane frames and every tolerance
+/// working on coordinates of the building's own size.
+glm::dvec3 local_origin(const visdb::Scene& scene) {
+    glm::dvec3 lo{std::numeric_limits<double>::max()};
+    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
+    for (const auto& s : scene.surfaces)
+        for (const glm::dvec3& p : s.mesh.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    if (!(lo.x <= hi.x)) return glm::dvec3{0.0};
+    return glm::round(0.5 * (lo + hi));
+}
+
+}  // namespace
+
 visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const ProgressFn& progress) {
+    const glm::dvec3 origin = local_origin(scene);
+    // Within a kilometre of the origin the scene's own frame is local enough
+    if (glm::length(origin) < 1e3) return bake_here(scene, options, progress);
+    visdb::Scene local = scene;
+    for (auto& s : local.surfaces)
+        for (glm::dvec3& p : s.mesh.positions) p -= origin;
+    visdb::Bake result = bake_here(local, options, progress);
+    for (glm::dvec3& p : result.mesh.positions) p += origin;
+    result.parameters.emplace_back("local_origin", std::to_string(origin.x) + " " +
+                                                       std::to_string(origin.y) + " " +
+                                                       std::to_string(origin.z));
+    return result;
+}
+
+namespace {
+
+visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
+                      const ProgressFn& progress) {
     validate(options);
     const auto t_start = Clock::now();
     Work w = build_mesh(scene);
@@ -729,5 +773,7 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
     result.mesh = std::move(mesh);
     return result;
 }
+
+}  // namespace
 
 }  // namespace abrad::radiosity

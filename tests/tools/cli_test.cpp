@@ -372,3 +372,74 @@ TEST_F(Cli, ProbeWritesExactIrradianceAtPoints) {
 }
 
 }  // namespace
+
+// The paper's room moved to survey coordinates (2.5e6 m east, 1.2e6 m north, 400 m up):
+// import, bake and store keep every coordinate and give the same light as at the origin.
+TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
+    const glm::dvec3 shift{2'500'000.0, 1'200'000.0, 400.0};
+    const fs::path model = sample("paper_simple/paper_occluder.obj");
+    std::istringstream in(bytes(model));
+    std::string shifted;
+    for (std::string line; std::getline(in, line);) {
+        if (line.rfind("v ", 0) == 0) {
+            std::istringstream v(line.substr(2));
+            glm::dvec3 p;
+            v >> p.x >> p.y >> p.z;
+            char buf[128];
+            std::snprintf(buf, sizeof buf, "v %.17g %.17g %.17g", p.x + shift.x, p.y + shift.y,
+                          p.z + shift.z);
+            line = buf;
+        } else if (line.rfind("mtllib ", 0) == 0) {
+            line = "mtllib " + (model.parent_path() / line.substr(7)).string();
+        }
+        shifted += line + "\n";
+    }
+    const std::string at_origin = path("origin.visdb").string();
+    const std::string at_survey = path("survey.visdb").string();
+    ASSERT_EQ(run("import " + model.string() + " --db " + at_origin).status, 0);
+    const Result imported = run("import " + write("survey.obj", shifted) + " --db " + at_survey);
+    ASSERT_EQ(imported.status, 0) << imported.output;
+    for (const std::string& db : {at_origin, at_survey}) {
+        ASSERT_EQ(run("bake --db " + db + " --name off --dm off").status, 0);
+        ASSERT_EQ(run("bake --db " + db + " --name dm").status, 0);
+    }
+
+    // Without meshing the meshes are the same: positions to 1e-8 m, irradiance to 1e-5
+    const abrad::visdb::Bake o = abrad::visdb::Store::open(at_origin, abrad::visdb::OpenMode::ReadOnly).load_bake("off");
+    const abrad::visdb::Bake s = abrad::visdb::Store::open(at_survey, abrad::visdb::OpenMode::ReadOnly).load_bake("off");
+    ASSERT_EQ(o.mesh.positions.size(), s.mesh.positions.size());
+    double worst_position = 0.0, worst_irradiance = 0.0;
+    for (std::size_t v = 0; v < o.mesh.positions.size(); ++v) {
+        const glm::dvec3 d = s.mesh.positions[v] - shift - o.mesh.positions[v];
+        worst_position = std::max({worst_position, std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        const glm::vec3 a = o.mesh.irradiance[v], b = s.mesh.irradiance[v];
+        for (int k = 0; k < 3; ++k)
+            worst_irradiance = std::max(worst_irradiance, double(std::abs(a[k] - b[k])) / (std::abs(a[k]) + 1e-3));
+    }
+    EXPECT_LT(worst_position, 1e-8);
+    EXPECT_LT(worst_irradiance, 1e-5);
+
+    // With meshing: the same shadow segments and the same field error (the refinement's
+    // threshold decisions may differ by a few triangles)
+    const Result eo = run("field-error --db " + at_origin + " --bake dm");
+    const Result es = run("field-error --db " + at_survey + " --bake dm");
+    ASSERT_EQ(es.status, 0) << es.output;
+    auto kv_o = key_values(eo.output), kv_s = key_values(es.output);
+    const double e_o = std::stod(kv_o["relative_l1"]), e_s = std::stod(kv_s["relative_l1"]);
+    EXPECT_LT(e_s, 0.04);
+    EXPECT_NEAR(e_s, e_o, 0.1 * e_o);
+    const double t_o = std::stod(kv_o["triangles"]), t_s = std::stod(kv_s["triangles"]);
+    EXPECT_NEAR(t_s, t_o, 0.02 * t_o);
+    const abrad::visdb::Bake dm = abrad::visdb::Store::open(at_survey, abrad::visdb::OpenMode::ReadOnly).load_bake("dm");
+    EXPECT_GT(dm.mesh.positions.front().x, 2.4e6);  // stored at survey coordinates
+    const abrad::visdb::Bake dm_o =
+        abrad::visdb::Store::open(at_origin, abrad::visdb::OpenMode::ReadOnly).load_bake("dm");
+    const auto stat = [](const abrad::visdb::Bake& b, const std::string& key) {
+        for (const auto& [k, v] : b.statistics)
+            if (k == key) return v;
+        return -1.0;
+    };
+    // The shadow edges are found in the bake's local frame: exactly the same ones
+    EXPECT_EQ(stat(dm, "dm_shadow_segments"), stat(dm_o, "dm_shadow_segments"));
+    EXPECT_GT(stat(dm, "dm_shadow_segments"), 100.0);
+}
