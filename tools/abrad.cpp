@@ -25,6 +25,7 @@
 #include <glm/geometric.hpp>
 
 #include "abrad/convert/import.h"
+#include "abrad/convert/scene_file.h"
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
@@ -88,6 +89,9 @@ void add_import_options(CLI::App& app, ImportArgs& a) {
                    "Weld vertices closer than this fraction of the model's bounding-box diagonal "
                    "(default 1e-6; 0 welds only identical positions)")
         ->check(CLI::Range(0.0, 1e-2));
+    app.add_option("--scene", a.scene,
+                   "Scene file (TOML): unit, up axis, origin shift, material and light rules by "
+                   "object/layer/material name, emitter rectangles, cameras, exclusions, grids");
 }
 
 void add_bake_options(CLI::App& app, BakeArgs& a) {
@@ -188,6 +192,15 @@ private:
 visdb::Scene read_models(const ImportArgs& a) {
     visdb::Scene all;
     convert::ImportOptions options;
+    std::optional<convert::SceneFile> scene_file;
+    if (!a.scene.empty()) {
+        try {
+            scene_file = convert::read_scene_file(a.scene);
+        } catch (const convert::ImportError& e) {
+            bad_input(e.what());
+        }
+        convert::apply_import_settings(*scene_file, options);
+    }
     if (!a.unit.empty()) options.unit = a.unit;
     if (!a.up.empty()) options.up = a.up.front();
     if (a.weld) options.weld_tolerance = *a.weld;
@@ -212,6 +225,14 @@ visdb::Scene read_models(const ImportArgs& a) {
             s.material += material_base;
             s.source += source_base;
             all.surfaces.push_back(std::move(s));
+        }
+    }
+    if (scene_file) {
+        try {
+            const convert::SceneFileReport report = convert::apply_scene_file(*scene_file, all);
+            std::cout << "applied " << a.scene << "\n" << report.to_string();
+        } catch (const convert::ImportError& e) {
+            bad_input(e.what());
         }
     }
     return all;

@@ -443,3 +443,40 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     EXPECT_EQ(stat(dm, "dm_shadow_segments"), stat(dm_o, "dm_shadow_segments"));
     EXPECT_GT(stat(dm, "dm_shadow_segments"), 100.0);
 }
+
+// Every file in ../shared/data (CAD models, meshes, broken files written by others) either
+// imports, and bakes when it has lights, or is refused with exit 2 and a message naming it.
+// The abrad under test is built with AddressSanitizer in CI: no import may crash.
+TEST_F(Cli, EverySharedDataFileImportsOrIsRefusedByName) {
+    const fs::path data{ABRAD_SHARED_DATA};
+    ASSERT_TRUE(fs::is_directory(data)) << data;
+    std::size_t imported = 0, refused = 0, baked = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(data)) {
+        if (!entry.is_regular_file()) continue;
+        std::string ext = entry.path().extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        if (ext == ".mtl" || ext == ".txt" || ext == ".md" || ext == ".bin" || ext == ".png" ||
+            ext == ".jpg" || entry.path().filename().string().rfind("LICENSE", 0) == 0)
+            continue;
+        const std::string file = entry.path().string();
+        SCOPED_TRACE(file);
+        const std::string db = path(entry.path().stem().string() + std::to_string(imported + refused) + ".visdb").string();
+        const Result r = run("import " + file + " --db " + db);
+        if (r.status == 2) {
+            ++refused;
+            EXPECT_NE(r.output.find(file), std::string::npos) << r.output;
+            EXPECT_FALSE(fs::exists(db));
+            continue;
+        }
+        ASSERT_EQ(r.status, 0) << r.output;
+        ++imported;
+        const Result info = run("info --db " + db);
+        if (info.output.find("lights: 0 triangles") != std::string::npos) continue;
+        const Result b = run("bake --db " + db + " --name b --dm off --resolution 25");
+        EXPECT_EQ(b.status, 0) << b.output;
+        ++baked;
+    }
+    std::printf("shared data: %zu imported (%zu baked), %zu refused\n", imported, baked, refused);
+    EXPECT_GE(imported, 12u);
+    EXPECT_GE(refused, 2u);  // at least the infinite coordinates and the indices out of range
+}
