@@ -472,7 +472,7 @@ TEST_F(Cli, EverySharedDataFileImportsOrIsRefusedByName) {
         ++imported;
         const Result info = run("info --db " + db);
         if (info.output.find("lights: 0 triangles") != std::string::npos) continue;
-        const Result b = run("bake --db " + db + " --name b --dm off --resolution 25");
+        const Result b = run("bake --db " + db + " --name b --dm off --resolution 24");
         EXPECT_EQ(b.status, 0) << b.output;
         ++baked;
     }
