@@ -295,8 +295,11 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
                   << stat_text(b.statistics, "dm_refine_points") << " refinement points in "
                   << stat_text(b.statistics, "dm_rounds") << " rounds, "
                   << stat_text(b.statistics, "seconds_dm") << " s\n";
-    std::cout << "  emitted " << stat_text(b.statistics, "emitted_power_w") << " W, reaching receivers "
-              << stat_text(b.statistics, "received_power_w") << " W (mean over RGB)\n";
+    // Power is in W for radiometric bakes, lm for photometric ones (lux bakes)
+    const char* power = b.unit == "lux" ? " lm" : " W";
+    std::cout << "  emitted " << stat_text(b.statistics, "emitted_power_w") << power
+              << ", reaching receivers " << stat_text(b.statistics, "received_power_w") << power
+              << " (mean over RGB)\n";
 }
 
 std::string utc_now() {

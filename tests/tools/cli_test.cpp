@@ -19,6 +19,8 @@
 #include <thread>
 #include <vector>
 
+#include <glm/common.hpp>
+
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/visdb/store.h"
 #include "../radiosity/mesh_checks.h"
@@ -479,4 +481,123 @@ TEST_F(Cli, EverySharedDataFileImportsOrIsRefusedByName) {
     std::printf("shared data: %zu imported (%zu baked), %zu refused\n", imported, baked, refused);
     EXPECT_GE(imported, 12u);
     EXPECT_GE(refused, 2u);  // at least the infinite coordinates and the indices out of range
+}
+
+// Form factor from a point to a parallel a × b rectangle centred straight above it at
+// height h (four corner rectangles; Howell's catalogue, C-11).
+double centred_rectangle_form_factor(double a, double b, double h) {
+    const double x = a / (2.0 * h), y = b / (2.0 * h);
+    const double sx = std::sqrt(1.0 + x * x), sy = std::sqrt(1.0 + y * y);
+    return 2.0 / M_PI * (x / sx * std::atan(y / sx) + y / sy * std::atan(x / sy));
+}
+
+// The irradiance triple `probe` prints for one point.
+glm::dvec3 probe_point(const std::string& db, const std::string& points_file) {
+    const Result r = run("probe --db " + db + " --points " + points_file);
+    EXPECT_EQ(r.status, 0) << r.output;
+    std::istringstream in(r.output);
+    std::string line, last;
+    while (std::getline(in, line))
+        if (!line.empty() && (std::isdigit(static_cast<unsigned char>(line[0])) || line[0] == '-')) last = line;
+    std::vector<double> v;
+    std::istringstream fields(last);
+    for (std::string f; std::getline(fields, f, ',');) v.push_back(std::stod(f));
+    if (v.size() != 9) {
+        ADD_FAILURE() << "no probe row in\n" << r.output;
+        return glm::dvec3(0.0);
+    }
+    return {v[6], v[7], v[8]};
+}
+
+// The FZK-Haus IFC lit by its scene file: ceiling panels given in lumens become emitters at
+// the right place with E = Φ / A, the bake is in lux, and the floor of the living room gets
+// what the closed form says its two panels give.
+TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
+    const std::string db = path("haus.visdb").string();
+    const Result imported = run("import " + std::string(ABRAD_SHARED_DATA) + "/ifc/AC14-FZK-Haus.ifc --db " + db +
+                                " --scene " + sample("fzk_haus/scene.toml"));
+    ASSERT_EQ(imported.status, 0) << imported.output;
+    EXPECT_NE(imported.output.find("emitters added: 6"), std::string::npos) << imported.output;
+    EXPECT_NE(imported.output.find("coplanar overlapping triangle pairs (z-fighting): "), std::string::npos);
+    const Result baked = run("bake --db " + db + " --name patch --dm off --shading patch");
+    ASSERT_EQ(baked.status, 0) << baked.output;
+    EXPECT_NE(baked.output.find(" lux"), std::string::npos) << baked.output;
+    EXPECT_NE(baked.output.find(" lm (mean over RGB)"), std::string::npos) << baked.output;
+
+    const abrad::visdb::Store store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
+    const abrad::visdb::Scene scene = store.load_scene();
+    EXPECT_EQ(scene.emittance_unit, "lm/m2");
+    ASSERT_EQ(scene.grids.size(), 1u);
+    EXPECT_EQ(scene.cameras.size(), 1u);
+    EXPECT_GT(scene.triangle_count(), 30000u);
+    const abrad::visdb::Bake bake = store.load_bake("patch");
+    EXPECT_EQ(bake.unit, "lux");
+    double emitted = 0.0;
+    for (const auto& [k, v] : bake.statistics)
+        if (k == "emitted_power_w") emitted = v;
+    // Five white 3000 lm panels and a 1000 lm warm one (mean over RGB of its normalised colour)
+    const double y = 0.2126 * 1.0 + 0.7152 * 0.93 + 0.0722 * 0.84;
+    EXPECT_NEAR(emitted, 15000.0 + 1000.0 * (1.0 + 0.93 + 0.84) / 3.0 / y, 1e-3);
+
+    // Living-room floor under the west panel (1.2 × 0.6 m at 2.49 m, 3000 lm): at least what
+    // that panel gives, at most that plus the east panel's unobstructed share (7 m away)
+    const double m = 3000.0 / 0.72;
+    const double own = m * centred_rectangle_form_factor(1.2, 0.6, 2.49);
+    const glm::dvec3 e = probe_point(db, write("floor.csv", "x,y,z,nx,ny,nz\n3.0,2.1,0.0,0,0,1\n"));
+    EXPECT_GT(e.x, own * (1.0 - 1e-9));
+    const double r2 = 7.0 * 7.0 + 2.49 * 2.49, c = 2.49 / std::sqrt(r2);
+    const double east = m * 0.72 * c * c / (M_PI * r2);  // point-source estimate, 7 m away
+    EXPECT_LT(e.x, own + 1.05 * east);
+    EXPECT_NEAR(e.x, e.y, 1e-4 * e.x);  // white panels (the warm hall panel is all but hidden)
+}
+
+// ezdxf's 3dface.dxf (millimetres, layer 0, faces facing down) over the dxf_plan scene
+// file's 3600 lm uplight: the unit converts, the panel lands where the scene file says and
+// the bake runs with discontinuity meshing.
+TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
+    const std::string db = path("plan.visdb").string();
+    const Result imported = run("import " + std::string(ABRAD_SHARED_DATA) + "/dxf/3dface.dxf --db " + db +
+                                " --scene " + sample("dxf_plan/scene.toml"));
+    ASSERT_EQ(imported.status, 0) << imported.output;
+    const Result baked = run("bake --db " + db + " --name dm");
+    ASSERT_EQ(baked.status, 0) << baked.output;
+    const abrad::visdb::Store store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
+    const abrad::visdb::Scene scene = store.load_scene();
+    // The outline is 4.156 × 3.614 m once millimetres are metres, flat at z = 0
+    glm::dvec3 lo(1e300), hi(-1e300);
+    for (const auto& s : scene.surfaces)
+        if (s.name != "uplight panel")
+            for (const auto& p : s.mesh.positions) {
+                lo = glm::min(lo, p);
+                hi = glm::max(hi, p);
+            }
+    EXPECT_NEAR(hi.x - lo.x, 4.1559, 1e-3);
+    EXPECT_NEAR(hi.y - lo.y, 3.6138, 1e-3);
+    EXPECT_EQ(hi.z, 0.0);
+    EXPECT_EQ(lo.z, 0.0);
+    double emitted = 0.0, received = 0.0;
+    for (const auto& [k, v] : store.load_bake("dm").statistics) {
+        if (k == "emitted_power_w") emitted = v;
+        if (k == "received_power_w") received = v;
+    }
+    EXPECT_NEAR(emitted, 3600.0, 1e-6);
+    EXPECT_GT(received, 0.03 * emitted);  // the faces face the panel (1.85 m² at 2.6 m)
+    const glm::dvec3 e = probe_point(db, write("p.csv", "2.77,2.05,0.0,0,0,-1\n"));
+    EXPECT_NEAR(e.x, 5000.0 * centred_rectangle_form_factor(1.2, 0.6, 2.6), 1e-6 * e.x);
+}
+
+// The Cornell box sample end to end (Y up): the light lands 1.98 m up facing down, 1 cm under
+// the ceiling (no z-fighting), and a point 0.68 m under its centre gets Ke times the closed form.
+TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
+    const Result r = run("run " + sample("cornell_box/CornellBox-Original.obj") + " --up y --out " +
+                         path("cornell").string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("coplanar overlapping triangle pairs (z-fighting): 0"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(path("cornell") / "CornellBox-Original.ply"));
+    const std::string db = (path("cornell") / "CornellBox-Original.visdb").string();
+    const glm::dvec3 e = probe_point(db, write("c.csv", "-0.005,0.03,1.3,0,0,1\n"));
+    const double f = centred_rectangle_form_factor(0.47, 0.38, 0.68);
+    EXPECT_NEAR(e.x, 17.0 * f, 1e-6 * e.x);
+    EXPECT_NEAR(e.y, 12.0 * f, 1e-6 * e.y);
+    EXPECT_NEAR(e.z, 4.0 * f, 1e-6 * e.z);
 }
