@@ -84,7 +84,6 @@ namespace abrad::convert::detail {
 namespace {
 
 constexpr double kMaxReflectance = 0.999;  ///< radiosity needs ρ < 1
-constexpr std::size_t kNotesPerKind = 5;   ///< repeated notes shown per kind
 constexpr const char* kDefaultMaterialName = "default";
 constexpr double kPi = 3.14159265358979323846;
 
@@ -133,28 +132,6 @@ std::optional<long> parse_long(std::string_view s) {
     return v;
 }
 
-/// Notes of one kind: the first few verbatim, then a count of the rest.
-class CappedNotes {
-  public:
-    CappedNotes(std::vector<std::string>& notes, std::string rest_label)
-        : m_notes(notes), m_rest_label(std::move(rest_label)) {}
-
-    void add(std::string note) {
-        if (m_count++ < kNotesPerKind) m_notes.push_back(std::move(note));
-    }
-
-    void finish(const std::string& file) {
-        if (m_count > kNotesPerKind) {
-            m_notes.push_back(located(
-                file, 0, std::to_string(m_count - kNotesPerKind) + " more " + m_rest_label));
-        }
-    }
-
-  private:
-    std::vector<std::string>& m_notes;
-    std::string m_rest_label;
-    std::size_t m_count = 0;
-};
 
 // ---------------------------------------------------------------------------------------------
 // Assimp's logger
@@ -1515,11 +1492,11 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
     // Lights: not supported (area emitters only)
     if (scene->mNumLights > 0) {
         std::string list;
-        for (unsigned i = 0; i < scene->mNumLights && i < kNotesPerKind; ++i) {
+        for (unsigned i = 0; i < scene->mNumLights && i < CappedNotes::kShown; ++i) {
             if (!list.empty()) list += ", ";
             list += quote(scene->mLights[i]->mName.C_Str());
         }
-        if (scene->mNumLights > kNotesPerKind) list += ", ...";
+        if (scene->mNumLights > CappedNotes::kShown) list += ", ...";
         notes.push_back(located(file, 0,
                                 std::to_string(scene->mNumLights) +
                                     " light(s) in the file ignored: " + list +

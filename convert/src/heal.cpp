@@ -37,31 +37,8 @@ namespace {
 
 constexpr double kDegenerateAreaFactor = 1e-12;  ///< × bbox diagonal², m²
 constexpr double kNonPlanarTolerance = 1e-4;     ///< × polygon extent, before a note
-constexpr std::size_t kNotesPerKind = 5;         ///< repeated healing notes shown per kind
 constexpr double kOverlapAreaFraction = 1e-6;    ///< of the smaller triangle, to count
 
-/// Healing notes of one kind: the first few verbatim, then a count of the rest.
-class CappedNotes {
-  public:
-    CappedNotes(std::vector<std::string>& notes, std::string rest_label)
-        : m_notes(notes), m_rest_label(std::move(rest_label)) {}
-
-    void add(std::string note) {
-        if (m_count++ < kNotesPerKind) m_notes.push_back(std::move(note));
-    }
-
-    void finish(const std::string& file) {
-        if (m_count > kNotesPerKind) {
-            m_notes.push_back(located(
-                file, 0, std::to_string(m_count - kNotesPerKind) + " more " + m_rest_label));
-        }
-    }
-
-  private:
-    std::vector<std::string>& m_notes;
-    std::string m_rest_label;
-    std::size_t m_count = 0;
-};
 
 std::string quote(std::string_view s) {
     constexpr std::size_t kMax = 40;

@@ -9,6 +9,7 @@
 #include <string_view>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -75,6 +76,32 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
 
 /// "FILE:LINE: message", or "FILE: message" when `line` is 0.
 std::string located(const std::string& file, std::size_t line, std::string_view message);
+
+/// Notes of one kind (healing, Assimp warnings...): the first few verbatim, then a count of
+/// the rest.
+class CappedNotes {
+  public:
+    static constexpr std::size_t kShown = 5;
+
+    CappedNotes(std::vector<std::string>& notes, std::string rest_label)
+        : m_notes(notes), m_rest_label(std::move(rest_label)) {}
+
+    void add(std::string note) {
+        if (m_count++ < kShown) m_notes.push_back(std::move(note));
+    }
+
+    void finish(const std::string& file) {
+        if (m_count > kShown) {
+            m_notes.push_back(
+                located(file, 0, std::to_string(m_count - kShown) + " more " + m_rest_label));
+        }
+    }
+
+  private:
+    std::vector<std::string>& m_notes;
+    std::string m_rest_label;
+    std::size_t m_count = 0;
+};
 
 /// FNV-1a 64 of `bytes` as 16 hex digits (Source::checksum).
 std::string fnv1a64_hex(std::string_view bytes);
