@@ -36,6 +36,7 @@
 #include <CGAL/Delaunay_mesh_size_criteria_2.h>
 #include <CGAL/Delaunay_mesh_vertex_base_2.h>
 #include <CGAL/Delaunay_mesher_2.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
@@ -53,7 +54,11 @@ constexpr std::size_t kRefineRounds = 4;
 // CGAL types
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Point2 = K::Point_2;
+/// Exact constructions for the CDT with crossing shadow edges: with Epick, the rounded
+/// crossing points of many near-collinear edges (a real house's shadows) corrupted
+/// Constrained_triangulation_plus_2 and crashed it.
+using KE = CGAL::Exact_predicates_exact_constructions_kernel;
+using Point2 = KE::Point_2;
 
 /// Id of the vertex in the region's RegionState, kNone for vertices CGAL created.
 struct VInfo {
@@ -65,11 +70,11 @@ struct FInfo {
 };
 
 // Triangulation that inserts the constraints: exact crossings, input constraints kept.
-using Vb1 = CGAL::Triangulation_vertex_base_with_info_2<VInfo, K>;
-using Fb1i = CGAL::Triangulation_face_base_with_info_2<FInfo, K>;
-using Fb1 = CGAL::Constrained_triangulation_face_base_2<K, Fb1i>;
+using Vb1 = CGAL::Triangulation_vertex_base_with_info_2<VInfo, KE>;
+using Fb1i = CGAL::Triangulation_face_base_with_info_2<FInfo, KE>;
+using Fb1 = CGAL::Constrained_triangulation_face_base_2<KE, Fb1i>;
 using Tds1 = CGAL::Triangulation_data_structure_2<Vb1, Fb1>;
-using Cdt1Base = CGAL::Constrained_Delaunay_triangulation_2<K, Tds1, CGAL::Exact_intersections_tag>;
+using Cdt1Base = CGAL::Constrained_Delaunay_triangulation_2<KE, Tds1, CGAL::Exact_intersections_tag>;
 using Cdt1 = CGAL::Constrained_triangulation_plus_2<Cdt1Base>;
 
 // Triangulation that is refined: its constraints no longer cross (they are the edges of a Cdt1).
@@ -325,7 +330,7 @@ MeshRun collect(const Cdt& cdt, const Frame& frame, const RegionState& in,
         auto [it, fresh] = new_id.try_emplace(v, static_cast<std::uint32_t>(run.next.verts.size()));
         if (fresh) {
             Vtx x;
-            x.p = {v->point().x(), v->point().y()};
+            x.p = {CGAL::to_double(v->point().x()), CGAL::to_double(v->point().y())};
             if (v->info().id != kNone) {
                 x.pos = in.verts[v->info().id].pos;
                 x.source = in.verts[v->info().id].source;
@@ -370,7 +375,8 @@ MeshRun collect(const Cdt& cdt, const Frame& frame, const RegionState& in,
 /// Walks the constrained edges of cdt from a to b (along the straight segment a-b).
 std::vector<Cdt2::Vertex_handle> walk_constrained(const Cdt2& cdt, Cdt2::Vertex_handle a, Cdt2::Vertex_handle b) {
     std::vector<Cdt2::Vertex_handle> path{a};
-    const Vec2 pa{a->point().x(), a->point().y()}, pb{b->point().x(), b->point().y()};
+    const Vec2 pa{CGAL::to_double(a->point().x()), CGAL::to_double(a->point().y())},
+               pb{CGAL::to_double(b->point().x()), CGAL::to_double(b->point().y())};
     const Vec2 d = pb - pa;
     const double dd = dot2(d, d);
     Cdt2::Vertex_handle cur = a;
@@ -387,10 +393,10 @@ std::vector<Cdt2::Vertex_handle> walk_constrained(const Cdt2& cdt, Cdt2::Vertex_
                 best = b;
                 break;
             }
-            const Vec2 pw{w->point().x(), w->point().y()};
+            const Vec2 pw{CGAL::to_double(w->point().x()), CGAL::to_double(w->point().y())};
             const double t = dot2(pw - pa, d) / dd;
             if (t <= t_cur || t >= 1.0) continue;
-            const Vec2 step = pw - Vec2{cur->point().x(), cur->point().y()};
+            const Vec2 step = pw - Vec2{CGAL::to_double(cur->point().x()), CGAL::to_double(cur->point().y())};
             const double s = std::abs(cross2(step, d)) / (len2(step) * std::sqrt(dd));
             if (s < best_sin) {
                 best_sin = s;
@@ -503,7 +509,8 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
     std::unordered_map<Cdt1::Vertex_handle, Cdt2::Vertex_handle> to2;
     Cdt2::Face_handle hint2;
     for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
-        const Cdt2::Vertex_handle w = cdt2.insert(v->point(), hint2);
+        const Cdt2::Vertex_handle w = cdt2.insert(
+            K::Point_2(CGAL::to_double(v->point().x()), CGAL::to_double(v->point().y())), hint2);
         w->info() = v->info();
         hint2 = w->face();
         to2.emplace(v, w);
