@@ -3,10 +3,11 @@
 // (Shewchuk, "Delaunay refinement algorithms for triangular mesh generation", 2002; CGAL Mesh_2).
 //
 // Numeric assumptions:
-// - All 2D orientation / in-circle predicates are exact (Epick filtered predicates).
-// - Where shadow edges cross, the crossing is computed exactly (Exact_intersections_tag) and
-//   rounded to double; the triangulation stays valid for the rounded points, constraints bend
-//   by at most one rounding at such a vertex.
+// - All 2D orientation / in-circle predicates are exact (filtered predicates).
+// - Where shadow edges cross, the crossing is constructed exactly (Epeck, lazy exact) in the
+//   first CDT and rounded to double only when read back; with Epick the rounded crossings of
+//   a real model's many near-collinear shadow edges corrupted Constrained_triangulation_plus_2
+//   (a crash on the FZK-Haus). The refinement CDT works on the rounded points (Epick).
 // - Every "is this point on that edge / next to that point" decision is made once, with
 //   merge_distance, and then carried as topology (vertex ids, polylines through shared
 //   vertices), never re-decided from rounded coordinates.
