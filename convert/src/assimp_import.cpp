@@ -83,18 +83,13 @@ namespace abrad::convert::detail {
 
 namespace {
 
+/// Names quoted in messages keep up to 60 characters.
+std::string quote_name(std::string_view s) { return quote(s, 60); }
+
 constexpr double kMaxReflectance = 0.999;  ///< radiosity needs ρ < 1
 constexpr const char* kDefaultMaterialName = "default";
 constexpr double kPi = 3.14159265358979323846;
 
-/// Quotes a name for a message, shortened so binary junk cannot flood the output.
-std::string quote(std::string_view s) {
-    constexpr std::size_t kMax = 60;
-    std::string out = "'";
-    out += s.size() > kMax ? std::string(s.substr(0, kMax)) + "..." : std::string(s);
-    out += "'";
-    return out;
-}
 
 std::string lower(std::string_view s) {
     std::string out(s);
@@ -263,7 +258,7 @@ std::optional<std::vector<DxfPair>> dxf_pairs(std::string_view text, const std::
         const std::optional<long> code = parse_long(code_line);
         if (!code || *code < 0 || *code > 1071) {
             throw ImportError(file, at,
-                              "DXF group code " + quote(trim(code_line)) +
+                              "DXF group code " + quote_name(trim(code_line)) +
                                   " is not a group code number (corrupt file?)");
         }
         if (!next_line(value_line)) {
@@ -286,7 +281,7 @@ void check_dxf_polyline_counts(const std::vector<DxfPair>& pairs, const std::str
         if (!n || *n < 0 || static_cast<std::size_t>(*n) > pairs.size()) {
             throw ImportError(file, p.line + 1,
                               "POLYLINE " + std::string(p.code == 71 ? "vertex" : "face") +
-                                  " count " + quote(p.value) + " out of range");
+                                  " count " + quote_name(p.value) + " out of range");
         }
     }
 }
@@ -536,19 +531,19 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
         const auto it = blocks.find(name);
         if (it == blocks.end()) {
             insert_notes.add(
-                located(file, line, "INSERT of undefined block " + quote(name) + " ignored"));
+                located(file, line, "INSERT of undefined block " + quote_name(name) + " ignored"));
             return;
         }
         if (expanding.count(name) > 0 || expanding.size() >= 16) {
             insert_notes.add(located(file, line,
-                                     "INSERT of block " + quote(name) +
+                                     "INSERT of block " + quote_name(name) +
                                          " inside itself (or nested too deep) "
                                          "ignored"));
             return;
         }
         if (glm::length(extrusion) == 0.0 || columns * rows > 100000) {
             insert_notes.add(located(file, line,
-                                     "INSERT of block " + quote(name) +
+                                     "INSERT of block " + quote_name(name) +
                                          " with a zero extrusion direction or "
                                          "too many copies ignored"));
             return;
@@ -689,7 +684,7 @@ void check_ply(std::string_view text, const std::string& file) {
             else if (tokens[1] == "binary_big_endian")
                 format = 2;
             else
-                fail(line, "unknown format " + quote(tokens[1]));
+                fail(line, "unknown format " + quote_name(tokens[1]));
         } else if (tokens[0] == "element") {
             const std::optional<long> n = tokens.size() == 3 ? parse_long(tokens[2]) : std::nullopt;
             if (!n || *n < 0) fail(line, "malformed element line");
@@ -702,19 +697,19 @@ void check_ply(std::string_view text, const std::string& file) {
                 p.count_size = ply_type_size(tokens[2], is_float);
                 if (p.count_size == 0 || is_float) fail(line, "bad list count type");
                 p.item_size = ply_type_size(tokens[3], is_float);
-                if (p.item_size == 0) fail(line, "unknown type " + quote(tokens[3]));
+                if (p.item_size == 0) fail(line, "unknown type " + quote_name(tokens[3]));
                 p.is_float = is_float;
                 p.is_index_list = tokens[4] == "vertex_indices" || tokens[4] == "vertex_index";
             } else if (tokens.size() == 3) {
                 p.size = ply_type_size(tokens[1], is_float);
-                if (p.size == 0) fail(line, "unknown type " + quote(tokens[1]));
+                if (p.size == 0) fail(line, "unknown type " + quote_name(tokens[1]));
                 p.is_float = is_float;
             } else {
                 fail(line, "malformed property line");
             }
             elements.back().properties.push_back(p);
         } else {
-            fail(line, "unknown header line " + quote(tokens[0]));
+            fail(line, "unknown header line " + quote_name(tokens[0]));
         }
     }
     if (!ended) fail(0, "header without end_header (truncated file?)");
@@ -731,7 +726,7 @@ void check_ply(std::string_view text, const std::string& file) {
                 // Elements are one per line; blank lines are skipped
                 do {
                     if (!next_line()) {
-                        fail(0, "file ends in element " + quote(e.name) + " " + std::to_string(i) +
+                        fail(0, "file ends in element " + quote_name(e.name) + " " + std::to_string(i) +
                                     " of " + std::to_string(e.count) + " (truncated file?)");
                     }
                     split(l);
@@ -757,7 +752,7 @@ void check_ply(std::string_view text, const std::string& file) {
                         if (p.is_index_list) {
                             const std::optional<long> v = parse_long(tokens[t]);
                             if (!v || *v < 0 || static_cast<std::size_t>(*v) >= vertices) {
-                                fail(line, "vertex index " + quote(tokens[t]) + " out of range (" +
+                                fail(line, "vertex index " + quote_name(tokens[t]) + " out of range (" +
                                                std::to_string(vertices) + " vertices)");
                             }
                         } else if (!parse_double(tokens[t])) {
@@ -785,7 +780,7 @@ void check_ply(std::string_view text, const std::string& file) {
             for (const PlyProperty& p : e.properties) {
                 const std::size_t need = p.size > 0 ? p.size : p.count_size;
                 if (at + need > text.size()) {
-                    fail(0, "file ends in element " + quote(e.name) + " " + std::to_string(i) +
+                    fail(0, "file ends in element " + quote_name(e.name) + " " + std::to_string(i) +
                                 " of " + std::to_string(e.count) + " (truncated file?)");
                 }
                 if (p.size > 0) {
@@ -795,7 +790,7 @@ void check_ply(std::string_view text, const std::string& file) {
                 const std::uint64_t n = read_uint(at, p.count_size);
                 at += p.count_size;
                 if (n > (text.size() - at) / p.item_size) {
-                    fail(0, "list count " + std::to_string(n) + " in element " + quote(e.name) +
+                    fail(0, "list count " + std::to_string(n) + " in element " + quote_name(e.name) +
                                 " " + std::to_string(i) + " runs past the end of the file");
                 }
                 if (p.is_index_list && !p.is_float) {
@@ -803,7 +798,7 @@ void check_ply(std::string_view text, const std::string& file) {
                         std::uint64_t v = read_uint(at + k * p.item_size, p.item_size);
                         const bool negative = (v >> (8 * p.item_size - 1)) & 1U;
                         if (negative || v >= vertices) {
-                            fail(0, "vertex index out of range in element " + quote(e.name) + " " +
+                            fail(0, "vertex index out of range in element " + quote_name(e.name) + " " +
                                         std::to_string(i));
                         }
                     }
@@ -1033,7 +1028,7 @@ struct MaterialConverter {
             const visdb::Rgb clamped = glm::clamp(rho, 0.0, kMaxReflectance);
             if (!(clamped == rho)) {
                 clamp_notes.add(located(file, 0,
-                                        "material " + quote(name) + ": reflectance (" +
+                                        "material " + quote_name(name) + ": reflectance (" +
                                             format_number(rho.x) + ", " + format_number(rho.y) +
                                             ", " + format_number(rho.z) + ") clamped to [0, " +
                                             format_number(kMaxReflectance) + "]"));
@@ -1052,7 +1047,7 @@ struct MaterialConverter {
             }
             if (out.is_emitter()) {
                 emitter_notes.add(located(file, 0,
-                                          "material " + quote(name) + ": emissive colour (" +
+                                          "material " + quote_name(name) + ": emissive colour (" +
                                               format_number(e.x) + ", " + format_number(e.y) +
                                               ", " + format_number(e.z) +
                                               ") taken as emittance in W/m²"));
@@ -1067,7 +1062,7 @@ struct MaterialConverter {
         if (!(out.opacity >= 0.0 && out.opacity <= 1.0)) {
             const double a = std::isfinite(out.opacity) ? std::clamp(out.opacity, 0.0, 1.0) : 1.0;
             clamp_notes.add(located(file, 0,
-                                    "material " + quote(name) + ": opacity " +
+                                    "material " + quote_name(name) + ": opacity " +
                                         format_number(out.opacity) + " clamped to " +
                                         format_number(a)));
             out.opacity = a;
@@ -1295,7 +1290,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                 first.emittance != converted[index].emittance ||
                 first.opacity != converted[index].opacity) {
                 redefined_notes.add(located(file, 0,
-                                            "material " + quote(*name) +
+                                            "material " + quote_name(*name) +
                                                 " defined again with other values; the first "
                                                 "definition is kept"));
             }
@@ -1331,7 +1326,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
             for (int c = 0; c < 4; ++c) {
                 if (!std::isfinite(frame.world[c][r])) {
                     throw ImportError(file, 0,
-                                      "node " + quote(name) + " has a non-finite transform");
+                                      "node " + quote_name(name) + " has a non-finite transform");
                 }
             }
         }
@@ -1358,8 +1353,8 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
             const std::string& material = material_of(mesh.mMaterialIndex);
             const std::size_t instance = instances->size();
             std::string label = mesh_name.empty() ? "mesh #" + std::to_string(mesh_index)
-                                                  : "mesh " + quote(mesh_name);
-            if (mesh_name.empty() && !object.empty()) label += " in " + quote(object);
+                                                  : "mesh " + quote_name(mesh_name);
+            if (mesh_name.empty() && !object.empty()) label += " in " + quote_name(object);
             instances->push_back({std::move(label)});
             const auto [sit, added] =
                 slot_index.try_emplace(std::make_tuple(object, layer, material),
@@ -1389,7 +1384,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                         if (!std::isfinite(w.x) || !std::isfinite(w.y) || !std::isfinite(w.z)) {
                             throw ImportError(
                                 file, 0,
-                                "mesh " + quote(mesh_name) + " vertex " + std::to_string(v) +
+                                "mesh " + quote_name(mesh_name) + " vertex " + std::to_string(v) +
                                     ": coordinates are not finite (" + format_number(p.x) + ", " +
                                     format_number(p.y) + ", " + format_number(p.z) + ")");
                         }
@@ -1474,7 +1469,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
             out.fov_y_deg = fov_y * 180.0 / kPi;
         } else {
             notes.push_back(located(file, 0,
-                                    "camera " + quote(out.name) +
+                                    "camera " + quote_name(out.name) +
                                         " has no usable field of view (orthographic?); "
                                         "60 degrees used"));
         }
@@ -1483,7 +1478,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                           out.look_at.y + out.look_at.z + out.up.x + out.up.y + out.up.z);
         if (!finite) {
             notes.push_back(located(
-                file, 0, "camera " + quote(out.name) + " has non-finite placement; ignored"));
+                file, 0, "camera " + quote_name(out.name) + " has non-finite placement; ignored"));
             continue;
         }
         raw.cameras.push_back(std::move(out));
@@ -1494,7 +1489,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
         std::string list;
         for (unsigned i = 0; i < scene->mNumLights && i < CappedNotes::kShown; ++i) {
             if (!list.empty()) list += ", ";
-            list += quote(scene->mLights[i]->mName.C_Str());
+            list += quote_name(scene->mLights[i]->mName.C_Str());
         }
         if (scene->mNumLights > CappedNotes::kShown) list += ", ...";
         notes.push_back(located(file, 0,

@@ -25,6 +25,18 @@ std::string located(const std::string& file, std::size_t line, std::string_view 
     return s;
 }
 
+std::string quote(std::string_view s, std::size_t max) {
+    std::string q = "'";
+    if (s.size() > max) {
+        q += s.substr(0, max);
+        q += "...";
+    } else {
+        q += s;
+    }
+    q += "'";
+    return q;
+}
+
 std::string read_file_bytes(const std::filesystem::path& path, const std::string& display,
                             const char* what) {
     std::error_code ec;

@@ -40,13 +40,6 @@ constexpr double kNonPlanarTolerance = 1e-4;     ///< × polygon extent, before 
 constexpr double kOverlapAreaFraction = 1e-6;    ///< of the smaller triangle, to count
 
 
-std::string quote(std::string_view s) {
-    constexpr std::size_t kMax = 40;
-    std::string q = "'";
-    q += s.size() > kMax ? std::string(s.substr(0, kMax)) + "..." : std::string(s);
-    q += "'";
-    return q;
-}
 
 std::string format_general(double x) {
     std::array<char, 32> buf{};

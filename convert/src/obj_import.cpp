@@ -38,6 +38,7 @@
 namespace abrad::convert {
 
 using detail::located;
+using detail::quote;
 using detail::read_file_bytes;
 using detail::fnv1a64_hex;
 using detail::utc_now_iso8601;
@@ -48,19 +49,6 @@ constexpr double kMaxReflectance = 0.999;         ///< radiosity needs ρ < 1
 constexpr std::size_t kUnknownKeywordNotes = 20;  ///< distinct unknown statements shown
 constexpr const char* kDefaultMaterialName = "default";
 
-/// Quotes a token for a message, shortened so binary junk cannot flood the output.
-std::string quote_token(std::string_view token) {
-    constexpr std::size_t kMax = 40;
-    std::string s = "'";
-    if (token.size() > kMax) {
-        s += token.substr(0, kMax);
-        s += "...";
-    } else {
-        s += token;
-    }
-    s += "'";
-    return s;
-}
 
 // ---------------------------------------------------------------------------------------------
 // Text input
@@ -242,7 +230,7 @@ class IgnoredStatements {
                     continue;
                 }
                 ++unknown_shown;
-                message = "unknown statement " + quote_token(e.keyword) + " ignored";
+                message = "unknown statement " + quote(e.keyword) + " ignored";
             }
             if (e.count > 1) message += " (" + std::to_string(e.count) + " times, first here)";
             notes.push_back(located(file, e.first_line, message));
@@ -287,7 +275,7 @@ class MaterialLibrary {
         std::error_code ec;
         if (!std::filesystem::exists(path, ec)) {
             notes.push_back(located(obj_file, obj_line,
-                                    "material library " + quote_token(display) +
+                                    "material library " + quote(display) +
                                         " not found; its materials get the default"));
             return;
         }
@@ -319,7 +307,7 @@ class MaterialLibrary {
                 if (const MtlEntry* earlier = find(name)) {
                     notes.push_back(located(
                         file, line_no,
-                        "material " + quote_token(name) + " defined again; the definition at " +
+                        "material " + quote(name) + " defined again; the definition at " +
                             earlier->file + ":" + std::to_string(earlier->line) + " is kept"));
                     scratch = MtlEntry{};
                     current = &scratch;
@@ -339,7 +327,7 @@ class MaterialLibrary {
             }
             if (current == nullptr) {
                 notes.push_back(
-                    located(file, line_no, quote_token(key) + " before any newmtl ignored"));
+                    located(file, line_no, quote(key) + " before any newmtl ignored"));
                 continue;
             }
             apply(*current, tokens, file, line_no, notes);
@@ -369,12 +357,12 @@ class MaterialLibrary {
                     break;
                 case NumberStatus::kMalformed:
                     throw ImportError(file, line,
-                                      "malformed number " + quote_token(tokens[i]) + " in " +
-                                          quote_token(tokens[0]));
+                                      "malformed number " + quote(tokens[i]) + " in " +
+                                          quote(tokens[0]));
                 case NumberStatus::kNonFinite:
                     throw ImportError(file, line,
-                                      "non-finite value " + quote_token(tokens[i]) + " in " +
-                                          quote_token(tokens[0]));
+                                      "non-finite value " + quote(tokens[i]) + " in " +
+                                          quote(tokens[0]));
             }
         }
         return values;
@@ -385,7 +373,7 @@ class MaterialLibrary {
                              std::size_t line) {
         if (tokens.size() > 1 && (tokens[1] == "spectral" || tokens[1] == "xyz")) {
             throw ImportError(file, line,
-                              quote_token(tokens[0]) + " " + std::string(tokens[1]) +
+                              quote(tokens[0]) + " " + std::string(tokens[1]) +
                                   " colours are not supported; give linear RGB");
         }
         const std::vector<double> v = numbers(tokens, 1, file, line);
@@ -393,7 +381,7 @@ class MaterialLibrary {
         if (v.size() == 3) return {v[0], v[1], v[2]};
         throw ImportError(
             file, line,
-            quote_token(tokens[0]) + " needs 1 or 3 numbers, got " + std::to_string(v.size()));
+            quote(tokens[0]) + " needs 1 or 3 numbers, got " + std::to_string(v.size()));
     }
 
     static double scalar(const std::vector<std::string_view>& tokens, std::size_t from,
@@ -402,7 +390,7 @@ class MaterialLibrary {
         if (v.size() != 1) {
             throw ImportError(
                 file, line,
-                quote_token(tokens[0]) + " needs 1 number, got " + std::to_string(v.size()));
+                quote(tokens[0]) + " needs 1 number, got " + std::to_string(v.size()));
         }
         return v[0];
     }
@@ -419,7 +407,7 @@ class MaterialLibrary {
             if (rho.x > kMaxReflectance || rho.y > kMaxReflectance || rho.z > kMaxReflectance) {
                 rho = glm::min(rho, visdb::Rgb(kMaxReflectance));
                 notes.push_back(located(file, line,
-                                        "reflectance of " + quote_token(m.name) +
+                                        "reflectance of " + quote(m.name) +
                                             " clamped to 0.999 (radiosity needs Kd < 1)"));
             }
             m.reflectance = rho;
@@ -442,7 +430,7 @@ class MaterialLibrary {
                 m.opacity = 1.0 - tr;
                 if (tr == 1.0) {
                     notes.push_back(located(file, line,
-                                            "Tr 1 makes " + quote_token(m.name) +
+                                            "Tr 1 makes " + quote(m.name) +
                                                 " fully transparent (some exporters write Tr "
                                                 "as opacity; give d to be sure)"));
                 }
@@ -454,7 +442,7 @@ class MaterialLibrary {
             if (v.size() != 1 && v.size() != 3) {
                 throw ImportError(
                     file, line,
-                    quote_token(key) + " needs 1 or 3 numbers, got " + std::to_string(v.size()));
+                    quote(key) + " needs 1 or 3 numbers, got " + std::to_string(v.size()));
             }
         } else if (key == "Ns" || key == "Ni" || key == "illum" || key == "sharpness" ||
                    key == "Pr" || key == "Pm" || key == "Ps" || key == "Pc" || key == "Pcr" ||
@@ -585,9 +573,9 @@ class ObjParser {
                 case NumberStatus::kOk:
                     break;
                 case NumberStatus::kMalformed:
-                    fail(line, "malformed number " + quote_token(tokens[i + 1]));
+                    fail(line, "malformed number " + quote(tokens[i + 1]));
                 case NumberStatus::kNonFinite:
-                    fail(line, "non-finite coordinate " + quote_token(tokens[i + 1]));
+                    fail(line, "non-finite coordinate " + quote(tokens[i + 1]));
             }
         }
         if (m_data.positions.size() == std::numeric_limits<std::uint32_t>::max()) {
@@ -605,11 +593,11 @@ class ObjParser {
                           const char* what, std::size_t line, std::uint64_t& max_forward) const {
         std::int64_t index = 0;
         if (!parse_integer(text, index)) {
-            fail(line, "malformed " + std::string(what) + " index " + quote_token(text) +
-                           " in face corner " + quote_token(corner));
+            fail(line, "malformed " + std::string(what) + " index " + quote(text) +
+                           " in face corner " + quote(corner));
         }
         if (index == 0) {
-            fail(line, std::string(what) + " index 0 in face corner " + quote_token(corner) +
+            fail(line, std::string(what) + " index 0 in face corner " + quote(corner) +
                            " (OBJ indices start at 1)");
         }
         if (index < 0) {
@@ -645,7 +633,7 @@ class ObjParser {
             std::size_t start = 0;
             while (true) {
                 const std::size_t slash = corner.find('/', start);
-                if (parts == 3) fail(line, "malformed face corner " + quote_token(corner));
+                if (parts == 3) fail(line, "malformed face corner " + quote(corner));
                 part[parts++] =
                     corner.substr(start, slash == std::string_view::npos ? std::string_view::npos
                                                                          : slash - start);
@@ -655,7 +643,7 @@ class ObjParser {
             const bool well_formed = !part[0].empty() && (parts != 2 || !part[1].empty()) &&
                                      (parts != 3 || !part[2].empty());
             if (!well_formed) {
-                fail(line, "malformed face corner " + quote_token(corner) +
+                fail(line, "malformed face corner " + quote(corner) +
                                " (expected v, v/vt, v//vn or v/vt/vn)");
             }
             const std::uint64_t v =
@@ -818,7 +806,7 @@ RawModel read_obj(const std::filesystem::path& path, const ImportOptions& option
     for (const auto& [name, line] : data.usemtl) {
         if (library.find(name) == nullptr) {
             notes.push_back(located(file, line,
-                                    "material " + quote_token(name) +
+                                    "material " + quote(name) +
                                         " is not defined; it gets the default "
                                         "(reflectance 0.5, emittance 0, opacity 1)"));
         }

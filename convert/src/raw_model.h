@@ -74,6 +74,10 @@ struct HealOptions {
 /// 0). Throws ImportError when no triangle is left.
 visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport& report);
 
+/// `s` in single quotes for a message, cut to `max` characters (then "...") so binary junk
+/// cannot flood the output.
+std::string quote(std::string_view s, std::size_t max = 40);
+
 /// "FILE:LINE: message", or "FILE: message" when `line` is 0.
 std::string located(const std::string& file, std::size_t line, std::string_view message);
 

@@ -3,6 +3,8 @@
 // end in an ImportError naming the file (never a crash: the suite runs under ASan).
 
 #include <gtest/gtest.h>
+
+#include "temp_dir.h"
 #include <unistd.h>
 
 #include <algorithm>
@@ -34,37 +36,7 @@ namespace fs = std::filesystem;
 
 const fs::path kSharedData{ABRAD_SHARED_DATA};
 
-/// A fresh directory under the system temp directory, removed with its files at the end.
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        m_path =
-            fs::temp_directory_path() /
-            ("abrad_assimp_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) +
-             "_" + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-        fs::create_directories(m_path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(m_path, ec);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-
-    /// Writes `bytes` to `name` in this directory and returns its path.
-    fs::path write(const std::string& name, const std::string& bytes) const {
-        const fs::path p = m_path / name;
-        std::ofstream out(p, std::ios::binary);
-        out << bytes;
-        return p;
-    }
-
-    const fs::path& path() const { return m_path; }
-
-  private:
-    fs::path m_path;
-};
+using testing::TempDir;
 
 std::string read_bytes(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);

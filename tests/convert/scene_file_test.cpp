@@ -4,6 +4,8 @@
 #include "abrad/convert/scene_file.h"
 
 #include <gtest/gtest.h>
+
+#include "temp_dir.h"
 #include <unistd.h>
 
 #include <atomic>
@@ -20,34 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// A fresh directory under the system temp directory, removed with its files at the end.
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        m_path = fs::temp_directory_path() /
-                 ("abrad_scene_file_test_" + std::to_string(::getpid()) + "_" +
-                  std::to_string(counter++) + "_" +
-                  std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
-        fs::create_directories(m_path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(m_path, ec);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-
-    fs::path write(const std::string& name, const std::string& text) const {
-        const fs::path p = m_path / name;
-        std::ofstream out(p, std::ios::binary);
-        out << text;
-        return p;
-    }
-
-  private:
-    fs::path m_path;
-};
+using testing::TempDir;
 
 /// Writes `toml` to a temporary scene.toml and reads it.
 SceneFile parse(const std::string& toml) {
