@@ -17,6 +17,8 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <cctype>
+#include <numeric>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -30,6 +32,7 @@
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/field_error.h"
+#include "abrad/radiosity/indirect.h"
 #include "abrad/visdb/store.h"
 
 namespace fs = std::filesystem;
@@ -65,7 +68,7 @@ struct BakeArgs {
     std::string method = "abuffer";
     int resolution = 50;
     int subpixels = 8;
-    std::string bounces = "converge";
+    std::string bounces = "0";
     double converge = 0.005;
     double element_size = 0.5;
     double overrelax = 1.0;
@@ -110,9 +113,9 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
         ->capture_default_str();
     app.add_option("--subpixels", a.subpixels, "A-buffer mask side: 4, 8 or 16 (8 = 8x8 = one uint64)")
         ->capture_default_str();
-    app.add_option("--bounces", a.bounces, "Interreflection: converge (shoot from reflecting "
-                                           "surfaces until --converge), 0 (direct light only, the "
-                                           "paper's setting) or a number of bounces")
+    app.add_option("--bounces", a.bounces, "Interreflection: 0 (direct light only, the paper's "
+                                           "setting), converge (shoot from reflecting surfaces until "
+                                           "--converge) or a number of bounces")
         ->capture_default_str();
     app.add_option("--converge", a.converge, "Stop interreflection when the unshot power is below "
                                              "this fraction of the emitted power")
@@ -376,8 +379,68 @@ std::string utc_now() {
     return buf;
 }
 
+// Direct plus gathered indirect irradiance at points; a scene without lights is bad input.
+radiosity::PointIrradiance point_irradiance_of(const std::string& db, const visdb::Scene& scene,
+                                               const visdb::Bake* bake) {
+    try {
+        return radiosity::PointIrradiance(scene, bake);
+    } catch (const radiosity::BakeError& e) {
+        bad_input(db + ": " + e.what());
+    }
+}
+
+// A file-name-safe form of a grid name.
+std::string file_safe(const std::string& name) {
+    std::string out;
+    for (const char c : name) out += std::isalnum(static_cast<unsigned char>(c)) || c == '-' ? c : '_';
+    return out;
+}
+
+// Each calculation grid of the scene evaluated on the bake: points at the centres of cells no
+// larger than the spacing; E_avg, E_min, E_max and U0 = E_min/E_avg printed and written as CSV
+// (`<prefix>grid-<name>.csv`, one line per point). Values are illuminance (photometric bakes)
+// or irradiance as luminance-weighted RGB, like the bake summary.
+void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visdb::Bake& bake,
+                    const fs::path& prefix) {
+    if (scene.grids.empty()) return;
+    const radiosity::PointIrradiance field = point_irradiance_of(db, scene, &bake);
+    for (const visdb::CalculationGrid& g : scene.grids) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const int nx = std::max(1, static_cast<int>(std::ceil((g.max.x - g.min.x) / g.spacing - 1e-9)));
+        const int ny = std::max(1, static_cast<int>(std::ceil((g.max.y - g.min.y) / g.spacing - 1e-9)));
+        std::vector<radiosity::ProbePoint> points;
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i)
+                points.push_back({{g.min.x + (i + 0.5) * (g.max.x - g.min.x) / nx,
+                                   g.min.y + (j + 0.5) * (g.max.y - g.min.y) / ny, g.z},
+                                  g.normal});
+        const std::vector<visdb::Rgb> h = field.at(points);
+        std::vector<double> e(h.size());
+        for (std::size_t k = 0; k < h.size(); ++k) e[k] = 0.2126 * h[k].x + 0.7152 * h[k].y + 0.0722 * h[k].z;
+        const double lo = *std::min_element(e.begin(), e.end());
+        const double hi = *std::max_element(e.begin(), e.end());
+        const double avg = std::accumulate(e.begin(), e.end(), 0.0) / double(e.size());
+        const fs::path csv = prefix.string() + "grid-" + file_safe(g.name) + ".csv";
+        {
+            std::ofstream out(csv);
+            out << "x,y,z,illuminance,irradiance_r,irradiance_g,irradiance_b\n";
+            out.precision(9);
+            for (std::size_t k = 0; k < h.size(); ++k)
+                out << points[k].x.x << "," << points[k].x.y << "," << points[k].x.z << "," << e[k] << ","
+                    << h[k].x << "," << h[k].y << "," << h[k].z << "\n";
+            if (!out) throw CommandError{kExitFailure, csv.string() + ": cannot write the grid values"};
+        }
+        const double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        std::printf("  grid '%s': %d x %d points at z %.3g m: E_avg %.4g, E_min %.4g, E_max %.4g %s, "
+                    "U0 %.3f (%s, %.2f s)\n",
+                    g.name.c_str(), nx, ny, g.z, avg, lo, hi, bake.unit.c_str(),
+                    avg > 0.0 ? lo / avg : 0.0, csv.string().c_str(), seconds);
+    }
+}
+
 visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in,
-                      const std::string& convergence_csv = {}) {
+                      const std::string& convergence_csv = {}, const std::string& grid_prefix = {}) {
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
     const visdb::Scene scene = store.load_scene();
     radiosity::BakeOptions options = options_in;
@@ -400,6 +463,8 @@ visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& optio
     b.created_at = utc_now();
     store.add_bake(b);
     print_bake_summary(b, scene);
+    std::cout << std::flush;
+    evaluate_grids(db, scene, b, grid_prefix.empty() ? fs::path(db).replace_extension("").string() + "." + b.name + "." : grid_prefix);
     return b;
 }
 
@@ -532,26 +597,31 @@ void probe(const std::string& db, const std::string& points_path, const std::str
     if (points.empty()) bad_input(points_path + ": no points");
 
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
-    std::string unit = "W/m2";
-    if (!bake_name.empty()) {
+    // The indirect part comes from a bake: the named one, else the latest, else none
+    std::optional<visdb::Bake> bake;
+    if (!bake_name.empty() || !store.list_bakes().empty()) {
         try {
-            const auto b = store.load_bake(bake_name);
-            unit = b.unit;
+            bake = store.load_bake(bake_name);
         } catch (const visdb::StoreError& e) {
             bad_input(e.what());
         }
     }
     const visdb::Scene scene = store.load_scene();
-    const radiosity::DirectField field = direct_field_of(db, scene);
-    // Bakes so far are direct light only (--bounces 0): the exact direct value is the whole
-    // irradiance. Interreflection will add its interpolated indirect part here.
-    std::fprintf(stderr, "probe: %zu points, %zu light triangles, direct light only, unit %s\n",
-                 points.size(), field.light_triangles(), unit.c_str());
+    const std::string unit = bake ? bake->unit : scene.emittance_unit == "lm/m2" ? "lux" : "W/m2";
+    const radiosity::PointIrradiance field = point_irradiance_of(db, scene, bake ? &*bake : nullptr);
+    std::fprintf(stderr, "probe: %zu points, %s, unit %s\n", points.size(),
+                 field.has_indirect() ? ("exact direct + indirect gathered from bake '" + bake->name + "'").c_str()
+                 : bake ? ("direct light only (bake '" + bake->name + "' has no interreflection)").c_str()
+                        : "direct light only (no bake yet)",
+                 unit.c_str());
+    std::vector<radiosity::ProbePoint> where;
+    for (const Point& pt : points) where.push_back({pt.x, pt.n});
+    const std::vector<visdb::Rgb> h = field.at(where);
     std::printf("x,y,z,nx,ny,nz,irradiance_r,irradiance_g,irradiance_b\n");
-    for (const Point& pt : points) {
-        const visdb::Rgb h = field.irradiance(pt.x, pt.n);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const Point& pt = points[i];
         std::printf("%.17g,%.17g,%.17g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", pt.x.x, pt.x.y, pt.x.z,
-                    pt.n.x, pt.n.y, pt.n.z, h.x, h.y, h.z);
+                    pt.n.x, pt.n.y, pt.n.z, h[i].x, h[i].y, h[i].z);
     }
 }
 
@@ -562,6 +632,11 @@ void field_error(const std::string& db, const std::string& bake_name, int subdiv
         bad_input("--subdivisions must be in [1, 64], got " + std::to_string(subdivisions));
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
     const visdb::Bake b = load_bake_for(store, db, bake_name, "measure");
+    for (const auto& [key, value] : b.parameters)
+        if (key == "bounces" && value != "0")
+            bad_input(db + ": bake '" + b.name + "' has interreflection (bounces " + value +
+                      "); the field error measures direct light against its exact field: measure a "
+                      "--bounces 0 bake");
     const visdb::Scene scene = store.load_scene();
     const radiosity::DirectField field = direct_field_of(db, scene);
     const auto t0 = std::chrono::steady_clock::now();
@@ -609,12 +684,12 @@ int run_cli(int argc, char** argv) {
     info_cmd->add_option("--db", db, "Visual database")->required();
 
     std::string points_path;
-    auto* probe_cmd = app.add_subcommand("probe", "Exact irradiance at points from a CSV file");
+    auto* probe_cmd = app.add_subcommand("probe", "Irradiance at points from a CSV file: exact direct light plus the indirect part gathered from a bake");
     probe_cmd->add_option("--db", db, "Visual database")->required();
     probe_cmd->add_option("--points", points_path, "CSV of x,y,z,nx,ny,nz per line (metres; a header "
                                                    "line allowed)")->required();
-    probe_cmd->add_option("--bake", bake_name, "Bake whose unit to report (default: none needed for "
-                                               "direct light)");
+    probe_cmd->add_option("--bake", bake_name, "Bake whose interreflection to gather and unit to "
+                                               "report (default: the latest; none: direct light)");
 
     int subdivisions = 3;
     auto* error_cmd = app.add_subcommand("field-error", "Gouraud-interpolated irradiance of a bake "
@@ -668,7 +743,7 @@ int run_cli(int argc, char** argv) {
             fs::remove(tmp_db);
             try {
                 import_into(scene, tmp_db.string());
-                bake_into(tmp_db.string(), options, bake_args.convergence_csv);
+                bake_into(tmp_db.string(), options, bake_args.convergence_csv, (fs::path(out_dir) / (stem + ".")).string());
             } catch (...) {
                 fs::remove(tmp_db);
                 throw;

@@ -418,3 +418,68 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
 }
 
 }  // namespace abrad::radiosity
+
+namespace abrad::radiosity {
+
+IndirectField::IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& mesh, int resolution)
+    : m_hemicube(resolution) {
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
+    for (const glm::dvec3& p : mesh.positions) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    // Survey coordinates: work around the rounded centre, as the bake does
+    if (lo.x <= hi.x && glm::length(0.5 * (lo + hi)) >= 1e3) m_origin = glm::round(0.5 * (lo + hi));
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        const glm::u32vec3 tri = mesh.triangles[t];
+        const std::uint32_t s = mesh.triangle_surface[t];
+        if (s >= scene.surfaces.size() || scene.surfaces[s].material >= scene.materials.size())
+            throw BakeError("bake triangle " + std::to_string(t) + " has no surface or material in the scene");
+        const visdb::Material& m = scene.materials[scene.surfaces[s].material];
+        Patch p{{mesh.positions[tri.x] - m_origin, mesh.positions[tri.y] - m_origin,
+                 mesh.positions[tri.z] - m_origin},
+                m.opacity};
+        const glm::dvec3 c = glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]);
+        if (!(glm::length(c) > 0.0)) continue;
+        visdb::Rgb b(0.0);
+        for (int k = 0; k < 3; ++k) b += visdb::Rgb(mesh.radiosity[tri[k]]) - m.emittance;
+        m_patches.push_back(p);
+        m_centroid.push_back((p.p[0] + p.p[1] + p.p[2]) / 3.0);
+        m_normal.push_back(glm::normalize(c));
+        m_reflected.push_back(glm::max(b / 3.0, visdb::Rgb(0.0)));
+    }
+}
+
+visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3& n) const {
+    const glm::dvec3 x = x_world - m_origin;
+    const ShootResult shot = shoot(ShooterFrame::at(x, n), m_patches, m_hemicube,
+                                   {.method = Visibility::ABuffer, .subpixels = 8, .occlusion = false});
+    visdb::Rgb h(0.0);
+    for (std::size_t j = 0; j < m_patches.size(); ++j) {
+        const double f = shot.form_factor[j];
+        // A surface reflects from its front only
+        if (f > 0.0 && glm::dot(x - m_centroid[j], m_normal[j]) > 0.0) h += f * m_reflected[j];
+    }
+    return h;
+}
+
+}  // namespace abrad::radiosity
+
+namespace abrad::radiosity {
+
+PointIrradiance::PointIrradiance(const visdb::Scene& scene, const visdb::Bake* bake) : m_direct(scene) {
+    if (!bake) return;
+    for (const auto& [key, value] : bake->parameters)
+        if (key == "bounces" && value != "0") m_indirect.emplace(scene, bake->mesh);
+}
+
+std::vector<visdb::Rgb> PointIrradiance::at(std::span<const ProbePoint> points) const {
+    std::vector<visdb::Rgb> h(points.size());
+    tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t i) {
+        h[i] = m_direct.irradiance(points[i].x, points[i].n);
+        if (m_indirect) h[i] += m_indirect->irradiance(points[i].x, points[i].n);
+    });
+    return h;
+}
+
+}  // namespace abrad::radiosity

@@ -75,7 +75,7 @@ protected:
     std::string baked_db() const {
         const std::string db = path("room.visdb").string();
         EXPECT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db).status, 0);
-        EXPECT_EQ(run("bake --db " + db + " --name first").status, 0);
+        EXPECT_EQ(run("bake --bounces 0 --db " + db + " --name first").status, 0);
         return db;
     }
 
@@ -123,7 +123,7 @@ TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
 TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
     const std::string db = baked_db();
     const std::string before = bytes(db);
-    for (const std::string opts : {"--resolution 51", "--subpixels 5", "--bounces 2", "--method nope",
+    for (const std::string opts : {"--resolution 51", "--subpixels 5", "--bounces -2", "--bounces many", "--converge 0", "--element-size 0", "--overrelax 2", "--method nope",
                                    "--shading nope", "--unknown-option 1", "--dm maybe", "--lights sun",
                                    "--dm-angle 30", "--refine-rounds -1", "--refine-tolerance 0",
                                    "--refine-min-edge -2"}) {
@@ -189,7 +189,7 @@ TEST_F(Cli, KilledBakeLeavesDatabaseReadableAndUnchanged) {
 // Import, bake, export through the command line; the exported PLY's header is the contract and
 // an unoccluded floor vertex carries the closed-form irradiance of the 1×1 m light.
 TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
-    const Result r = run("run " + sample("paper_simple/paper_occluder.obj") + " --out " + m_dir.string());
+    const Result r = run("run --bounces 0 " + sample("paper_simple/paper_occluder.obj") + " --out " + m_dir.string());
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string ply = bytes(path("paper_occluder.ply"));
     const std::string header_end = "end_header\n";
@@ -256,7 +256,7 @@ std::map<std::string, std::string> key_values(const std::string& text) {
 // 2-triangle walls and the floor's shadow to a small fraction.
 TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     const std::string db = baked_db();  // bake "first": the defaults, --dm on
-    ASSERT_EQ(run("bake --db " + db + " --name plain --dm off").status, 0);
+    ASSERT_EQ(run("bake --bounces 0 --db " + db + " --name plain --dm off").status, 0);
     const Result on = run("field-error --db " + db + " --bake first");
     const Result off = run("field-error --db " + db + " --bake plain");
     ASSERT_EQ(on.status, 0) << on.output;
@@ -281,7 +281,7 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
 // furniture standing on the floor): the discontinuity mesh has no T-vertices and every
 // surface keeps its area.
 TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
-    const Result r = run("run " + sample("furnished_room/furnished_room.obj") + " --out " + m_dir.string());
+    const Result r = run("run --bounces 0 " + sample("furnished_room/furnished_room.obj") + " --out " + m_dir.string());
     ASSERT_EQ(r.status, 0) << r.output;
     auto store = abrad::visdb::Store::open(path("furnished_room.visdb").string(), abrad::visdb::OpenMode::ReadWrite);
     const abrad::visdb::Scene scene = store.load_scene();
@@ -302,7 +302,7 @@ TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
     EXPECT_EQ(abrad::testing::count_t_vertices(bake.mesh), 0u);
     EXPECT_GT(bake.mesh.triangles.size(), input_triangles);
     // The model as drawn has them: the floor's vertices along the walls' feet
-    ASSERT_EQ(run("bake --db " + path("furnished_room.visdb").string() + " --name plain --dm off").status, 0);
+    ASSERT_EQ(run("bake --bounces 0 --db " + path("furnished_room.visdb").string() + " --name plain --dm off").status, 0);
     EXPECT_GT(abrad::testing::count_t_vertices(store.load_bake("plain").mesh), 0u);
 }
 
@@ -402,8 +402,8 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     const Result imported = run("import " + write("survey.obj", shifted) + " --db " + at_survey);
     ASSERT_EQ(imported.status, 0) << imported.output;
     for (const std::string& db : {at_origin, at_survey}) {
-        ASSERT_EQ(run("bake --db " + db + " --name off --dm off").status, 0);
-        ASSERT_EQ(run("bake --db " + db + " --name dm").status, 0);
+        ASSERT_EQ(run("bake --bounces 0 --db " + db + " --name off --dm off").status, 0);
+        ASSERT_EQ(run("bake --bounces 0 --db " + db + " --name dm").status, 0);
     }
 
     // Without meshing the meshes are the same: positions to 1e-8 m, irradiance to 1e-5
@@ -474,7 +474,7 @@ TEST_F(Cli, EverySharedDataFileImportsOrIsRefusedByName) {
         ++imported;
         const Result info = run("info --db " + db);
         if (info.output.find("lights: 0 triangles") != std::string::npos) continue;
-        const Result b = run("bake --db " + db + " --name b --dm off --resolution 24");
+        const Result b = run("bake --bounces 0 --db " + db + " --name b --dm off --resolution 24");
         EXPECT_EQ(b.status, 0) << b.output;
         ++baked;
     }
@@ -519,7 +519,7 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
     ASSERT_EQ(imported.status, 0) << imported.output;
     EXPECT_NE(imported.output.find("emitters added: 6"), std::string::npos) << imported.output;
     EXPECT_NE(imported.output.find("coplanar overlapping triangle pairs (z-fighting): "), std::string::npos);
-    const Result baked = run("bake --db " + db + " --name patch --dm off --shading patch");
+    const Result baked = run("bake --bounces 0 --db " + db + " --name patch --dm off --shading patch");
     ASSERT_EQ(baked.status, 0) << baked.output;
     EXPECT_NE(baked.output.find(" lux"), std::string::npos) << baked.output;
     EXPECT_NE(baked.output.find(" lm (mean over RGB)"), std::string::npos) << baked.output;
@@ -559,7 +559,7 @@ TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
     const Result imported = run("import " + std::string(ABRAD_SHARED_DATA) + "/dxf/3dface.dxf --db " + db +
                                 " --scene " + sample("dxf_plan/scene.toml"));
     ASSERT_EQ(imported.status, 0) << imported.output;
-    const Result baked = run("bake --db " + db + " --name dm");
+    const Result baked = run("bake --bounces 0 --db " + db + " --name dm");
     ASSERT_EQ(baked.status, 0) << baked.output;
     const abrad::visdb::Store store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
     const abrad::visdb::Scene scene = store.load_scene();
@@ -589,7 +589,7 @@ TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
 // The Cornell box sample end to end (Y up): the light lands 1.98 m up facing down, 1 cm under
 // the ceiling (no z-fighting), and a point 0.68 m under its centre gets Ke times the closed form.
 TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
-    const Result r = run("run " + sample("cornell_box/CornellBox-Original.obj") + " --up y --out " +
+    const Result r = run("run --bounces 0 " + sample("cornell_box/CornellBox-Original.obj") + " --up y --out " +
                          path("cornell").string());
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("coplanar overlapping triangle pairs (z-fighting): 0"), std::string::npos) << r.output;

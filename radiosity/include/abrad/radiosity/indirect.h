@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -22,6 +23,8 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/hemicube.h"
 #include "abrad/radiosity/shoot.h"
 #include "abrad/visdb/model.h"
 
@@ -124,5 +127,57 @@ void validate(const IndirectOptions& options);
 /// is below `converge`. Throws BakeError when there is no light.
 IndirectSolution solve_indirect(const IndirectInput& input, const IndirectOptions& options,
                                 const IndirectProgressFn& progress = {});
+
+}  // namespace abrad::radiosity
+
+namespace abrad::radiosity {
+
+/// Indirect irradiance at any point, gathered from a stored bake: a hemicube at the point
+/// sees the bake's triangles, each carrying the reflected part of its radiosity (B − E, the
+/// mean of its vertices), so a probe anywhere (on a surface or in the air over a work plane)
+/// gets the light the surfaces reflect towards it. Emitted light is the direct part's.
+class IndirectField {
+public:
+    /// `mesh` is a bake of `scene` (its triangle_surface indexes scene.surfaces).
+    IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& mesh, int resolution = 200);
+
+    /// Irradiance (RGB) at `x` on a plane with unit normal `n`, from reflecting surfaces.
+    visdb::Rgb irradiance(const glm::dvec3& x, const glm::dvec3& n) const;
+
+private:
+    glm::dvec3 m_origin{0.0};  // local frame of the patches (survey coordinates)
+    std::vector<Patch> m_patches;
+    std::vector<glm::dvec3> m_centroid, m_normal;
+    std::vector<visdb::Rgb> m_reflected;
+    Hemicube m_hemicube;
+};
+
+}  // namespace abrad::radiosity
+
+namespace abrad::radiosity {
+
+/// A point with the unit normal of the plane it measures on.
+struct ProbePoint {
+    glm::dvec3 x{0.0};
+    glm::dvec3 n{0.0, 0.0, 1.0};
+};
+
+/// The irradiance abrad reports at arbitrary points (probes, calculation grids): exact direct
+/// light plus, when the bake has interreflection, the indirect part gathered from it.
+class PointIrradiance {
+public:
+    /// `bake` may be null (direct light only); a bake with parameter bounces = 0 adds nothing.
+    /// Throws BakeError when the scene has no light.
+    PointIrradiance(const visdb::Scene& scene, const visdb::Bake* bake);
+
+    /// Irradiance at every point (in parallel), RGB, in the bake's unit.
+    std::vector<visdb::Rgb> at(std::span<const ProbePoint> points) const;
+
+    bool has_indirect() const { return m_indirect.has_value(); }
+
+private:
+    DirectField m_direct;
+    std::optional<IndirectField> m_indirect;
+};
 
 }  // namespace abrad::radiosity
