@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -600,4 +601,80 @@ TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
     EXPECT_NEAR(e.x, 17.0 * f, 1e-6 * e.x);
     EXPECT_NEAR(e.y, 12.0 * f, 1e-6 * e.y);
     EXPECT_NEAR(e.z, 4.0 * f, 1e-6 * e.z);
+}
+
+// Interreflection through the command line: a converged bake of the Cornell box evaluates the
+// scene file's grid (a work plane over both boxes, at 1.3 m: table and CSV agree), its probe
+// adds gathered indirect light on top of the exact direct light of a direct-only bake, and the
+// grid's CSV holds the probe's values.
+TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
+    const std::string scene = write("grid.toml", "[[grid]]\nname = \"work plane\"\nmin = [-0.8, -0.8]\n"
+                                                 "max = [0.8, 0.8]\nheight = 1.3\nspacing = 0.4\n");
+    const Result r = run("run --bounces converge " + sample("cornell_box/CornellBox-Original.obj") +
+                         " --up y --scene " + scene + " --out " + path("ir").string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("interreflection: "), std::string::npos) << r.output;
+    const std::size_t at = r.output.find("grid 'work plane': 4 x 4 points");
+    ASSERT_NE(at, std::string::npos) << r.output;
+    double avg = 0, lo = 0, hi = 0, u0 = 0;
+    ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("E_avg", at), "E_avg %lf, E_min %lf, E_max %lf W/m2, U0 %lf",
+                          &avg, &lo, &hi, &u0), 4)
+        << r.output.substr(at, 200);
+
+    // The CSV: 16 points, whose mean, min and max are the table's
+    std::ifstream csv(path("ir") / "CornellBox-Original.grid-work_plane.csv");
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line, "x,y,z,illuminance,irradiance_r,irradiance_g,irradiance_b");
+    std::vector<std::array<double, 7>> rows;
+    while (std::getline(csv, line)) {
+        std::array<double, 7> v{};
+        ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3], &v[4],
+                              &v[5], &v[6]), 7) << line;
+        rows.push_back(v);
+    }
+    ASSERT_EQ(rows.size(), 16u);
+    double sum = 0, mn = 1e300, mx = 0;
+    for (const auto& v : rows) {
+        sum += v[3];
+        mn = std::min(mn, v[3]);
+        mx = std::max(mx, v[3]);
+        EXPECT_NEAR(v[2], 1.3, 1e-12);
+    }
+    EXPECT_NEAR(avg, sum / 16, 1e-3 * avg);
+    EXPECT_NEAR(lo, mn, 1e-3 * lo);
+    EXPECT_NEAR(hi, mx, 1e-3 * hi);
+    EXPECT_NEAR(u0, mn / (sum / 16), 2e-3);
+
+    // Probe the grid's points: with the converged bake, the CSV's values; with a direct-only
+    // bake, less at every point: the lit ceiling the work plane faces adds 4-5 %
+    const std::string db = (path("ir") / "CornellBox-Original.visdb").string();
+    ASSERT_EQ(run("bake --db " + db + " --name direct --bounces 0").status, 0);
+    std::string points = "x,y,z,nx,ny,nz\n";
+    for (const auto& v : rows) {
+        char text[128];
+        std::snprintf(text, sizeof text, "%.17g,%.17g,%.17g,0,0,1\n", v[0], v[1], v[2]);
+        points += text;
+    }
+    const std::string points_file = write("grid_points.csv", points);
+    auto probe_all = [&](const std::string& bake) {
+        const Result p = run("probe --db " + db + " --bake " + bake + " --points " + points_file);
+        EXPECT_EQ(p.status, 0) << p.output;
+        std::vector<glm::dvec3> out;
+        std::istringstream in(p.output);
+        while (std::getline(in, line)) {
+            double v[9];
+            if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3], &v[4],
+                            &v[5], &v[6], &v[7], &v[8]) == 9)
+                out.emplace_back(v[6], v[7], v[8]);
+        }
+        return out;
+    };
+    const std::vector<glm::dvec3> converged = probe_all("bake-1"), direct = probe_all("direct");
+    ASSERT_EQ(converged.size(), 16u);
+    ASSERT_EQ(direct.size(), 16u);
+    for (std::size_t i = 0; i < 16; ++i) {
+        EXPECT_NEAR(converged[i].y, rows[i][5], 1e-5 * rows[i][5]) << "point " << i;
+        EXPECT_GT(converged[i].y, 1.02 * direct[i].y) << "point " << i;
+    }
 }
