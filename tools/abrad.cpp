@@ -77,6 +77,7 @@ struct BakeArgs {
     int refine_rounds = 4;
     double refine_tolerance = 0.1;
     double refine_min_edge = 0.05;
+    double reach = 0.0;
 };
 
 void add_import_options(CLI::App& app, ImportArgs& a) {
@@ -137,6 +138,9 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
         ->capture_default_str();
     app.add_option("--refine-min-edge", a.refine_min_edge, "Shortest edge refinement splits, metres")
         ->capture_default_str();
+    app.add_option("--reach", a.reach, "Light reach in metres: a light lights, shades and shadows only "
+                                       "what lies within this distance (per axis) of it (0 = unlimited)")
+        ->capture_default_str();
 }
 
 radiosity::BakeOptions to_options(const BakeArgs& a) {
@@ -154,6 +158,7 @@ radiosity::BakeOptions to_options(const BakeArgs& a) {
     o.refine_rounds = a.refine_rounds;
     o.refine_tolerance = a.refine_tolerance;
     o.refine_min_edge = a.refine_min_edge;
+    o.reach = a.reach;
     try {
         radiosity::validate(o);
     } catch (const radiosity::BakeError& e) {

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -383,8 +384,10 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
 
     // Scan-convert every patch into fragments
     FragmentBuffer<S> buffer;
-    for (std::size_t i = 0; i < patches.size(); ++i) {
-        if (i == options.exclude) continue;
+    const std::size_t count = options.only ? options.only->size() : patches.size();
+    for (std::size_t k = 0; k < count; ++k) {
+        const std::size_t i = options.only ? (*options.only)[k] : k;
+        if (i == options.exclude || i >= patches.size()) continue;
         const glm::dvec3 local[3] = {frame.to_local(patches[i].p[0]),
                                      frame.to_local(patches[i].p[1]),
                                      frame.to_local(patches[i].p[2])};
@@ -411,6 +414,7 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     }
 
     std::vector<std::uint64_t> pairs;
+    std::chrono::steady_clock::duration occlusion_time{};
     std::vector<Mask<S>> masks;
     std::vector<Mask<2 * S>> fine_masks;
     std::vector<std::uint32_t> ids;
@@ -435,7 +439,11 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
         const double delta = hc.delta(px);
         if (!fine) {
             propagate<Mask<S>>(masks, ids, patches, delta, abuffer, result.form_factor, bundles);
-            if (options.occlusion) merge_occlusion<Mask<S>>(masks, ids, patches, pairs);
+            if (options.occlusion && masks.size() > 1) {
+                const auto t0 = std::chrono::steady_clock::now();
+                merge_occlusion<Mask<S>>(masks, ids, patches, pairs);
+                occlusion_time += std::chrono::steady_clock::now() - t0;
+            }
         } else {
             // Undersampled pixel: the whole list at the finer mask resolution
             fine_masks.clear();
@@ -445,12 +453,16 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
             }
             propagate<Mask<2 * S>>(fine_masks, ids, patches, delta, abuffer, result.form_factor,
                                    fine_bundles);
-            if (options.occlusion)
+            if (options.occlusion && fine_masks.size() > 1) {
+                const auto t0 = std::chrono::steady_clock::now();
                 merge_occlusion<Mask<2 * S>>(fine_masks, ids, patches, pairs);
+                occlusion_time += std::chrono::steady_clock::now() - t0;
+            }
         }
     }
 
     // Deduplicate occlusion pairs
+    const auto t_dedup = std::chrono::steady_clock::now();
     result.raw_pairs = pairs.size();
     std::sort(pairs.begin(), pairs.end());
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
@@ -458,6 +470,8 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     for (std::uint64_t key : pairs)
         result.occlusion.push_back({static_cast<std::uint32_t>(key >> 32),
                                     static_cast<std::uint32_t>(key & 0xffffffffu)});
+    occlusion_time += std::chrono::steady_clock::now() - t_dedup;
+    result.seconds_occlusion = std::chrono::duration<double>(occlusion_time).count();
     return result;
 }
 

@@ -30,6 +30,10 @@ struct BakeOptions {
     int bounces = 0;      ///< 0 = direct light only (the paper's setting); more not yet built
     Shading shading = Shading::Exact;
     int threads = 0;      ///< 0 = all cores
+    /// Light reach in metres (0 = unlimited): a light shoots, shades and casts shadow edges only
+    /// on triangles whose box meets the cube of this half side around it (cull.h states the
+    /// error bound). Triangles wholly behind a light's plane are always culled (exact).
+    double reach = 0.0;
     /// Discontinuity meshing: receivers re-meshed along the shadow edges (CGAL CDT per
     /// planar region), then refined where the exact irradiance departs from linear.
     bool dm = true;
@@ -51,6 +55,7 @@ public:
 using ProgressFn = std::function<void(std::string_view stage, std::size_t done, std::size_t total)>;
 
 /// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces 0, threads >= 0,
+/// reach >= 0,
 /// dm_min_angle in [0, 20.7], refine_rounds in [0, 20], refine_tolerance > 0,
 /// refine_min_edge > 0); throws BakeError naming the option and value.
 void validate(const BakeOptions& options);
