@@ -3,6 +3,7 @@
 #include "abrad/radiosity/bvh.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 #include <glm/geometric.hpp>
@@ -19,11 +20,6 @@ void Box::grow(const glm::dvec3& p) {
 void Box::grow(const Box& b) {
     lo = glm::min(lo, b.lo);
     hi = glm::max(hi, b.hi);
-}
-
-bool Box::overlaps(const Box& b) const {
-    return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
-           lo.z <= b.hi.z && b.lo.z <= hi.z;
 }
 
 Hull::Hull(std::span<const glm::dvec3> points) {
@@ -50,22 +46,15 @@ Hull::Hull(std::span<const glm::dvec3> points) {
                 }
                 if (lo < -eps && hi > eps) continue;  // points on both sides: no face
                 auto add = [&](const glm::dvec3& nn, double dd) {
+                    // The same face seen through another triple of its points: keep one
+                    for (int i = 0; i < m_count; ++i)
+                        if (glm::dot(m_planes[i].n, nn) > 1.0 - 1e-12 && std::abs(m_planes[i].d - (dd + eps)) <= eps)
+                            return;
                     if (m_count < static_cast<int>(m_planes.size())) m_planes[m_count++] = {nn, dd + eps};
                 };
                 if (hi <= eps) add(nrm, d0);           // all below: outward normal +nrm
                 if (lo >= -eps) add(-nrm, -d0);        // all above (or flat: both sides)
             }
-}
-
-bool Hull::may_overlap(const Box& b) const {
-    for (int i = 0; i < m_count; ++i) {
-        const Plane& p = m_planes[i];
-        // The box corner furthest against the normal
-        const glm::dvec3 c{p.n.x >= 0.0 ? b.lo.x : b.hi.x, p.n.y >= 0.0 ? b.lo.y : b.hi.y,
-                           p.n.z >= 0.0 ? b.lo.z : b.hi.z};
-        if (glm::dot(p.n, c) > p.d) return false;
-    }
-    return true;
 }
 
 Bvh::Bvh(std::span<const Patch> patches) {

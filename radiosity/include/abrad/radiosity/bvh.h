@@ -18,7 +18,10 @@ struct Box {
     glm::dvec3 lo{1e300}, hi{-1e300};
     void grow(const glm::dvec3& p);
     void grow(const Box& b);
-    bool overlaps(const Box& b) const;
+    bool overlaps(const Box& b) const {
+        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y && lo.z <= b.hi.z &&
+               b.lo.z <= hi.z;
+    }
 };
 
 /// The convex hull of a few points (a light triangle and a receiver point or triangle) as a
@@ -31,8 +34,17 @@ public:
     explicit Hull(std::span<const glm::dvec3> points);
 
     const Box& box() const { return m_box; }
-    /// False when `b` lies entirely outside the hull.
-    bool may_overlap(const Box& b) const;
+    /// False when `b` lies entirely outside the hull (outside one of its face planes).
+    bool may_overlap(const Box& b) const {
+        for (int i = 0; i < m_count; ++i) {
+            const Plane& p = m_planes[i];
+            // The box corner furthest against the outward normal
+            const double x = p.n.x >= 0.0 ? b.lo.x : b.hi.x, y = p.n.y >= 0.0 ? b.lo.y : b.hi.y,
+                         z = p.n.z >= 0.0 ? b.lo.z : b.hi.z;
+            if (p.n.x * x + p.n.y * y + p.n.z * z > p.d) return false;
+        }
+        return true;
+    }
 
 private:
     Box m_box;
