@@ -627,7 +627,7 @@ void bench(const BenchArgs& a, int argc, char** argv) {
     for (int i = 0; i < argc; ++i) o.command += (i ? " " : "") + std::string(i ? argv[i] : "abrad");
     if (!a.no_room) {
         tools::FloorOptions room;
-        room.cell = 0.25;
+        room.cell = 0.5;
         room.furniture = 3;
         room.lights = 2;
         o.scenes.push_back({"generated room (" + tools::to_string(room) + ")", tools::generate_floor(room)});

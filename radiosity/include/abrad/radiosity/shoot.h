@@ -58,6 +58,7 @@ struct ShootResult {
     std::size_t fragments = 0;            ///< fragments stored over all pixels
     std::size_t undersampled_pixels = 0;  ///< fragments that needed the finer mask
     std::size_t raw_pairs = 0;            ///< occlusion pairs found before deduplication
+    std::size_t hidden_pieces = 0;        ///< patch pieces culled as hidden behind closed pixels
     double seconds_occlusion = 0.0;       ///< time spent merging occlusion lists (Algorithm 2)
 
     /// Occluders of `receiver` (a sub-range of `occlusion`).
