@@ -579,7 +579,7 @@ void add_bench_options(CLI::App& app, BenchArgs& a) {
                                         "generated room (imported as by abrad import)");
     app.add_option("--scene", a.scene, "Scene file (TOML) applied to the --model files");
     app.add_flag("--no-room", a.no_room, "Leave out the generated one-room scene from the grid");
-    app.add_flag("--quick", a.quick, "A small grid (Z-buffer R50, A-buffer R25 4x4 and R50 8x8; DM off "
+    app.add_flag("--quick", a.quick, "A small grid (Z-buffer R50, A-buffer R26 4x4 and R50 8x8; DM off "
                                      "and area) instead of the full one");
     app.add_option("--sizes", a.sizes, "Scaling: generated floors of about these many triangles "
                                        "(e.g. 3k 30k 300k 1M), baked with the bake options")

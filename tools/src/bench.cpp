@@ -373,10 +373,10 @@ std::vector<BakeOptions> settings_grid(bool quick, int threads) {
     };
     std::vector<Hc> hemicubes;
     if (quick) {
-        hemicubes = {{Visibility::ZBuffer, 50, 8}, {Visibility::ABuffer, 25, 4}, {Visibility::ABuffer, 50, 8}};
+        hemicubes = {{Visibility::ZBuffer, 50, 8}, {Visibility::ABuffer, 26, 4}, {Visibility::ABuffer, 50, 8}};
     } else {
         for (int r : {50, 100, 200, 400}) hemicubes.push_back({Visibility::ZBuffer, r, 8});
-        for (int r : {25, 50, 100})
+        for (int r : {26, 50, 100})  // R must be even: 26 stands for the 25
             for (int s : {4, 8, 16}) hemicubes.push_back({Visibility::ABuffer, r, s});
     }
     std::vector<std::pair<bool, radiosity::LightModel>> dms = {{false, radiosity::LightModel::Area}};

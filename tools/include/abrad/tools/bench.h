@@ -53,9 +53,9 @@ struct BenchRun {
     double stat(const std::string& key) const;  ///< a statistic, or 0 when absent
 };
 
-/// The settings grid: Z-buffer at R = 50, 100, 200, 400; A-buffer at R = 25, 50, 100 with 4x4,
+/// The settings grid: Z-buffer at R = 50, 100, 200, 400; A-buffer at R = 26 (the even resolution nearest 25), 50, 100 with 4x4,
 /// 8x8 and 16x16 masks; DM off, or on with each light model; patch and exact shading (quick:
-/// Z-buffer 50, A-buffer 25/4x4 and 50/8x8, DM off and area).
+/// Z-buffer 50, A-buffer 26/4x4 and 50/8x8, DM off and area).
 std::vector<radiosity::BakeOptions> settings_grid(bool quick, int threads);
 
 /// "abuffer R50 8x8, DM area, exact".
