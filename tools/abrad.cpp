@@ -68,7 +68,12 @@ struct BakeArgs {
     std::string method = "abuffer";
     int resolution = 50;
     int subpixels = 8;
-    int bounces = 0;
+    std::string bounces = "converge";
+    double converge = 0.005;
+    double element_size = 0.5;
+    double overrelax = 1.0;
+    std::string ambient = "on";
+    std::string convergence_csv;
     std::string shading = "exact";
     int threads = 0;
     std::string dm = "on";
@@ -109,9 +114,26 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
         ->capture_default_str();
     app.add_option("--subpixels", a.subpixels, "A-buffer mask side: 4, 8 or 16 (8 = 8x8 = one uint64)")
         ->capture_default_str();
-    app.add_option("--bounces", a.bounces, "Interreflection bounces (0 = direct light, the paper's "
-                                           "setting; only 0 is implemented so far)")
+    app.add_option("--bounces", a.bounces, "Interreflection: converge (shoot from reflecting "
+                                           "surfaces until --converge), 0 (direct light only, the "
+                                           "paper's setting) or a number of bounces")
         ->capture_default_str();
+    app.add_option("--converge", a.converge, "Stop interreflection when the unshot power is below "
+                                             "this fraction of the emitted power")
+        ->capture_default_str();
+    app.add_option("--element-size", a.element_size, "Side of the interreflection elements, metres "
+                                                     "(each planar region is cut into such cells)")
+        ->capture_default_str();
+    app.add_option("--overrelax", a.overrelax, "Over-relaxation factor ω in [1, 2) of the "
+                                               "converging solution (1 = classic progressive "
+                                               "refinement)")
+        ->capture_default_str();
+    app.add_option("--ambient", a.ambient, "Spread what is left unshot at convergence as the "
+                                           "ambient term")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
+    app.add_option("--convergence-csv", a.convergence_csv, "Write the convergence curve (shots, "
+                                                           "seconds, unshot fraction) to this CSV");
     app.add_option("--shading", a.shading, "Vertex shades: exact (exact direct irradiance past the "
                                            "occluders) or patch (area-weighted hemicube patches)")
         ->check(CLI::IsMember({"exact", "patch"}))
@@ -149,7 +171,17 @@ radiosity::BakeOptions to_options(const BakeArgs& a) {
     o.method = a.method == "zbuffer" ? radiosity::Visibility::ZBuffer : radiosity::Visibility::ABuffer;
     o.resolution = a.resolution;
     o.subpixels = a.subpixels;
-    o.bounces = a.bounces;
+    if (a.bounces == "converge") {
+        o.bounces = -1;
+    } else {
+        const auto [end, ec] = std::from_chars(a.bounces.data(), a.bounces.data() + a.bounces.size(), o.bounces);
+        if (ec != std::errc() || end != a.bounces.data() + a.bounces.size() || o.bounces < 0)
+            bad_input("--bounces must be 'converge' or a number of bounces >= 0, got '" + a.bounces + "'");
+    }
+    o.converge = a.converge;
+    o.element_size = a.element_size;
+    o.overrelaxation = a.overrelax;
+    o.ambient = a.ambient == "on";
     o.shading = a.shading == "patch" ? radiosity::Shading::Patch : radiosity::Shading::Exact;
     o.threads = a.threads;
     o.dm = a.dm == "on";
@@ -168,29 +200,44 @@ radiosity::BakeOptions to_options(const BakeArgs& a) {
 }
 
 // ---------------------------------------------------------------------------------------
-// Progress on stderr: a rewritten line on a terminal, a line per 10% otherwise.
-
+// Progress on stderr: a rewritten line on a terminal; otherwise a line per 10% (or, when the
+// total is open, as the interreflection's shots are, one every two seconds).
 class Progress {
 public:
     Progress() : m_tty(isatty(STDERR_FILENO) != 0), m_start(std::chrono::steady_clock::now()) {}
 
     void operator()(std::string_view stage, std::size_t done, std::size_t total) {
-        const int percent = total ? static_cast<int>(100 * done / total) : 100;
-        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
-        if (m_tty) {
-            std::fprintf(stderr, "\r%.*s: %zu/%zu light triangles (%d%%) %.1f s", int(stage.size()),
-                         stage.data(), done, total, percent, s);
-            if (done == total) std::fprintf(stderr, "\n");
-        } else if (percent / 10 != m_last_decile || done == total) {
+        const double s = seconds();
+        const std::string_view what = stage.starts_with("shoot")  ? "light triangles"
+                                      : stage.starts_with("mesh") ? "rounds"
+                                                                  : "";
+        char line[256];
+        if (total) {
+            const int percent = static_cast<int>(100 * done / total);
+            std::snprintf(line, sizeof line, "%.*s: %zu/%zu %.*s (%d%%) %.1f s", int(stage.size()),
+                          stage.data(), done, total, int(what.size()), what.data(), percent, s);
+            if (!m_tty && percent / 10 == m_last_decile && done != total && stage == m_stage) return;
             m_last_decile = percent / 10;
-            std::fprintf(stderr, "%.*s: %zu/%zu light triangles (%d%%) %.1f s\n", int(stage.size()),
-                         stage.data(), done, total, percent, s);
+        } else {
+            std::snprintf(line, sizeof line, "%.*s: %zu %.1f s", int(stage.size()), stage.data(), done, s);
+            if (!m_tty && s - m_last_line < 2.0 && done != 0) return;
         }
+        m_stage = std::string(stage);
+        m_last_line = s;
+        if (m_tty)
+            std::fprintf(stderr, "\r%-100s%s", line, total && done == total ? "\n" : "");
+        else
+            std::fprintf(stderr, "%s\n", line);
     }
 
 private:
+    double seconds() const {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+    }
     bool m_tty;
     int m_last_decile = -1;
+    double m_last_line = -1e9;
+    std::string m_stage;
     std::chrono::steady_clock::time_point m_start;
 };
 
@@ -259,6 +306,12 @@ void import_into(const visdb::Scene& scene, const std::string& db) {
               << " triangles in " << db << "\n";
 }
 
+double stat_value(const std::vector<std::pair<std::string, double>>& stats, const std::string& key) {
+    for (const auto& [k, v] : stats)
+        if (k == key) return v;
+    return std::nan("");
+}
+
 std::string stat_text(const std::vector<std::pair<std::string, double>>& stats, const std::string& key) {
     for (const auto& [k, v] : stats)
         if (k == key) {
@@ -308,6 +361,18 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
     std::cout << "  emitted " << stat_text(b.statistics, "emitted_power_w") << power
               << ", reaching receivers " << stat_text(b.statistics, "received_power_w") << power
               << " (mean over RGB)\n";
+    if (stat_text(b.statistics, "indirect_elements") != "-") {
+        std::cout << "  interreflection: " << stat_text(b.statistics, "indirect_elements")
+                  << " elements, " << stat_text(b.statistics, "indirect_shots") << " shots ("
+                  << stat_text(b.statistics, "indirect_rows") << " hemicubes), unshot "
+                  << 100.0 * stat_value(b.statistics, "indirect_unshot_fraction") << "%, ambient "
+                  << stat_text(b.statistics, "indirect_ambient") << " " << b.unit << ", "
+                  << stat_text(b.statistics, "seconds_indirect") << " s\n"
+                  << "  energy: emitted " << stat_text(b.statistics, "energy_emitted_w") << power
+                  << " = absorbed " << stat_text(b.statistics, "energy_absorbed_w") << power
+                  << " + escaped " << stat_text(b.statistics, "energy_escaped_w") << power
+                  << " + unshot " << stat_text(b.statistics, "energy_unshot_w") << power << "\n";
+    }
 }
 
 std::string utc_now() {
@@ -319,17 +384,26 @@ std::string utc_now() {
     return buf;
 }
 
-visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in) {
+visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in,
+                      const std::string& convergence_csv = {}) {
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
     const visdb::Scene scene = store.load_scene();
     radiosity::BakeOptions options = options_in;
     if (options.name.empty()) options.name = "bake-" + std::to_string(store.list_bakes().size() + 1);
     Progress progress;
     visdb::Bake b;
+    std::vector<radiosity::ConvergenceSample> curve;
+    if (!convergence_csv.empty()) options.convergence = &curve;
     try {
         b = radiosity::bake(scene, options, std::ref(progress));
     } catch (const radiosity::BakeError& e) {
         bad_input(db + ": " + e.what());
+    }
+    if (!convergence_csv.empty()) {
+        std::ofstream out(convergence_csv);
+        out << "shots,seconds,unshot_fraction\n";
+        for (const auto& c : curve) out << c.shots << "," << c.seconds << "," << c.unshot_fraction << "\n";
+        if (!out) throw CommandError{kExitFailure, convergence_csv + ": cannot write the convergence curve"};
     }
     b.created_at = utc_now();
     store.add_bake(b);
@@ -743,7 +817,7 @@ int run_cli(int argc, char** argv) {
             const visdb::Scene scene = read_models(import_args);
             import_into(scene, db);
         } else if (cmd == "bake") {
-            bake_into(db, to_options(bake_args));
+            bake_into(db, to_options(bake_args), bake_args.convergence_csv);
         } else if (cmd == "export") {
             export_bake(db, bake_name, format, output, ascii);
         } else if (cmd == "probe") {
@@ -767,7 +841,7 @@ int run_cli(int argc, char** argv) {
             fs::remove(tmp_db);
             try {
                 import_into(scene, tmp_db.string());
-                bake_into(tmp_db.string(), options);
+                bake_into(tmp_db.string(), options, bake_args.convergence_csv);
             } catch (...) {
                 fs::remove(tmp_db);
                 throw;

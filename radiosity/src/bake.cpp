@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <cmath>
 #include <mutex>
@@ -29,6 +30,7 @@
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/dm_mesh.h"
 #include "abrad/radiosity/exact.h"
+#include "abrad/radiosity/indirect.h"
 #include "abrad/radiosity/shadow_edges.h"
 
 namespace abrad::radiosity {
@@ -322,9 +324,13 @@ void validate(const BakeOptions& o) {
     if (o.method == Visibility::ABuffer && o.subpixels != 4 && o.subpixels != 8 &&
         o.subpixels != 16)
         throw BakeError("--subpixels must be 4, 8 or 16, got " + std::to_string(o.subpixels));
-    if (o.bounces != 0)
-        throw BakeError("--bounces " + std::to_string(o.bounces) +
-                        ": only direct light (--bounces 0) is implemented so far");
+    if (o.bounces < -1 || o.bounces > 1000)
+        throw BakeError("--bounces must be in [0, 1000] (or -1: until converged), got " +
+                        std::to_string(o.bounces));
+    validate(IndirectOptions{.bounces = std::max(o.bounces, 0),
+                             .converge = o.converge,
+                             .element_size = o.element_size,
+                             .overrelaxation = o.overrelaxation});
     if (!(o.reach >= 0.0 && o.reach < 1e7))
         throw BakeError("--reach must be >= 0 metres (0 = unlimited), got " + std::to_string(o.reach));
     if (o.threads < 0) throw BakeError("--threads must be >= 0, got " + std::to_string(o.threads));
@@ -573,7 +579,40 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     }
     for (std::size_t t = 0; t < nt; ++t) received += mean(tri_irradiance[t]) * w.area[t];
 
+    // Interreflection on the scene's triangles, clustered into elements per planar region
+    Regions regions = make_regions(w);
+    std::optional<IndirectSolution> indirect;
+    if (options.bounces != 0) {
+        std::vector<glm::dvec3> region_normal;
+        for (const PlanarRegion& r : regions.planar) region_normal.push_back(r.normal);
+        const IndirectInput input{.patches = w.patches,
+                                  .reflectance = w.reflectance,
+                                  .emittance = w.emittance,
+                                  .region = regions.of_triangle,
+                                  .region_normal = region_normal};
+        const IndirectOptions io{.bounces = std::max(options.bounces, 0),
+                                 .converge = options.converge,
+                                 .element_size = options.element_size,
+                                 .overrelaxation = options.overrelaxation,
+                                 .ambient = options.ambient,
+                                 .method = options.method,
+                                 .resolution = options.resolution,
+                                 .subpixels = options.subpixels};
+        std::string label;
+        indirect = solve_indirect(input, io, [&](std::string_view stage, std::size_t shots_done,
+                                                 std::size_t total, double unshot) {
+            if (!progress) return;
+            char text[96];
+            std::snprintf(text, sizeof text, "%.*s (unshot %.3g%%)", int(stage.size()), stage.data(),
+                          100.0 * unshot);
+            label = text;
+            progress(label, shots_done, total);
+        });
+        if (options.convergence) *options.convergence = indirect->curve;
+    }
+
     std::vector<std::pair<std::string, double>> dm_statistics;
+    std::vector<std::uint32_t> vertex_region;  // with DM: region of each output vertex
     Work target;  // the mesh whose vertices are shaded: the scene's, or the discontinuity mesh
     if (!dm) {
         if (!exact) vert_irradiance = average_to_vertices(w, tri_irradiance);
@@ -583,7 +622,6 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         // of refinement where the exact irradiance at an edge's midpoint departs from the
         // linear interpolation of its ends.
         const auto t_dm = Clock::now();
-        Regions regions = make_regions(w);
         // Lights and receivers finish in any order: sort each triangle's segments so the CDT
         // sees its constraints in one order (the mesh was nondeterministic by a few triangles)
         auto lex = [](const ShadowSegment& x, const ShadowSegment& y) {
@@ -600,7 +638,6 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         segments = {};
         const DmOptions dm_options{.min_angle_deg = options.dm_min_angle, .merge_distance = 1e-6};
         std::unordered_map<PointKey, visdb::Rgb, PointKeyHash> cache;
-        std::vector<std::uint32_t> vertex_region;
         visdb::BakeMesh mesh;
         std::vector<visdb::Rgb> h;
         DmStats dm_stats;
@@ -741,14 +778,21 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     }
 
     // Radiosity B = E + ρH at each vertex (material of its first triangle: all of a vertex's
-    // triangles belong to one surface)
+    // triangles belong to one surface); H = direct + interpolated indirect
     visdb::BakeMesh& mesh = target.mesh;
     const std::size_t n_out = mesh.positions.size();
     mesh.irradiance.resize(n_out);
     mesh.radiosity.resize(n_out);
+    double indirect_sum = 0.0;
     for (std::size_t v = 0; v < n_out; ++v) {
         const std::uint32_t t = target.incident[target.incident_start[v]];
-        const visdb::Rgb h = vert_irradiance[v];
+        visdb::Rgb h = vert_irradiance[v];
+        if (indirect) {
+            const std::uint32_t region = dm ? vertex_region[v] : regions.of_triangle[t];
+            const visdb::Rgb ind = indirect->at(region, mesh.positions[v]);
+            h += ind;
+            indirect_sum += mean(ind);
+        }
         mesh.irradiance[v] = glm::vec3(h);
         mesh.radiosity[v] = glm::vec3(target.emittance[t] + target.reflectance[t] * h);
     }
@@ -761,12 +805,21 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                          {"subpixels", options.method == Visibility::ABuffer
                                            ? std::to_string(options.subpixels)
                                            : std::string("1")},
-                         {"bounces", std::to_string(options.bounces)},
+                         {"bounces", options.bounces < 0 ? std::string("converge")
+                                                         : std::to_string(options.bounces)},
                          {"shading", to_string(options.shading)},
                          {"dm", dm ? "on" : "off"},
                          {"lights", to_string(options.lights)},
                          {"threads", std::to_string(options.threads)}};
     if (options.reach > 0.0) result.parameters.emplace_back("reach", std::to_string(options.reach));
+    if (options.bounces != 0) {
+        if (options.bounces < 0) {
+            result.parameters.emplace_back("converge", std::to_string(options.converge));
+            result.parameters.emplace_back("overrelax", std::to_string(options.overrelaxation));
+            result.parameters.emplace_back("ambient", options.ambient ? "on" : "off");
+        }
+        result.parameters.emplace_back("element_size", std::to_string(options.element_size));
+    }
     if (dm) {
         result.parameters.emplace_back("dm_angle", std::to_string(options.dm_min_angle));
         result.parameters.emplace_back("refine_rounds", std::to_string(options.refine_rounds));
@@ -794,6 +847,25 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                                   {"occluders_missed_by_lists", double(occluders_missed_by_lists)},
                                   {"seconds_shade_cpu", seconds_shade}});
     result.statistics.insert(result.statistics.end(), dm_statistics.begin(), dm_statistics.end());
+    if (indirect) {
+        const IndirectSolution& s = *indirect;
+        const double last = s.curve.empty() ? 0.0 : s.curve.back().unshot_fraction;
+        result.statistics.insert(
+            result.statistics.end(),
+            {{"indirect_elements", double(s.elements.size())},
+             {"indirect_pieces", double(s.pieces)},
+             {"indirect_shots", double(s.shots)},
+             {"indirect_rows", double(s.rows_computed)},
+             {"indirect_bounces", double(s.bounces_done)},
+             {"indirect_unshot_fraction", last},
+             {"indirect_ambient", mean(s.ambient_irradiance)},
+             {"indirect_mean_at_vertices", n_out ? indirect_sum / double(n_out) : 0.0},
+             {"energy_emitted_w", s.energy.emitted},
+             {"energy_absorbed_w", s.energy.absorbed},
+             {"energy_escaped_w", s.energy.escaped},
+             {"energy_unshot_w", s.energy.unshot},
+             {"seconds_indirect", s.seconds}});
+    }
     result.statistics.emplace_back("seconds_total", seconds_since(t_start));
     result.mesh = std::move(mesh);
     return result;

@@ -47,6 +47,13 @@ double ff_light(const glm::dvec3& x) {
     return testing::ff_parallel_rect(-0.5 - x.x, 0.5 - x.x, -0.5 - x.y, 0.5 - x.y, 1.5);
 }
 
+// Direct light only (the closed forms are for direct light).
+BakeOptions direct() {
+    BakeOptions o;
+    o.bounces = 0;
+    return o;
+}
+
 // No NaN, no Inf, no negative irradiance or radiosity anywhere.
 void expect_sane(const visdb::Bake& b) {
     ASSERT_EQ(b.mesh.irradiance.size(), b.mesh.positions.size());
@@ -93,7 +100,7 @@ TEST(HardCases, SurveyCoordinatesKeepTheExactField) {
     for (auto& s : scene.surfaces)
         for (auto& p : s.mesh.positions) p += offset;
     for (bool dm : {false, true}) {
-        BakeOptions o;
+        BakeOptions o = direct();
         o.dm = dm;
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
@@ -128,7 +135,7 @@ TEST(HardCases, SliversAndNearZeroAreaTrianglesGetTheClosedForm) {
     fan.mesh.triangles.push_back({0, 6, 6});  // zero area: dropped, counted
     scene.surfaces.push_back(fan);
     for (Shading shading : {Shading::Exact, Shading::Patch}) {
-        BakeOptions o;
+        BakeOptions o = direct();
         o.dm = false;
         o.shading = shading;
         const visdb::Bake b = bake(scene, o);
@@ -146,7 +153,7 @@ TEST(HardCases, CoplanarOverlappingFacesDoNotShadowEachOther) {
     // A rug lying exactly on the floor, overlapping it (z-fighting)
     scene.surfaces.push_back(grid("rug", 2, -0.6, 0.4, -0.3, 0.5, 0.0, 3, true));
     for (bool dm : {false, true}) {
-        BakeOptions o;
+        BakeOptions o = direct();
         o.dm = dm;
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
@@ -167,7 +174,7 @@ TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
         scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 2, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
                                            {0, 0, 1.5}, 5));
     for (Visibility method : {Visibility::ABuffer, Visibility::ZBuffer}) {
-        BakeOptions o;
+        BakeOptions o = direct();
         o.dm = false;
         o.shading = Shading::Patch;
         o.method = method;
@@ -176,7 +183,7 @@ TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
         EXPECT_NEAR(stat(b, "mean_form_factor_sum"), 1.0, 1e-9);
         EXPECT_NEAR(stat(b, "received_power_w"), stat(b, "emitted_power_w"), 1e-9 * stat(b, "emitted_power_w"));
     }
-    BakeOptions exact;  // DM on, exact shading
+    BakeOptions exact = direct();  // DM on, exact shading
     const visdb::Bake b = bake(scene, exact);
     expect_sane(b);
     for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
@@ -197,7 +204,7 @@ TEST(HardCases, OccluderTouchingTheReceiver) {
     for (int k = 0; k < 4; ++k)  // sides facing outwards
         scene.surfaces.push_back(quad_grid("box" + std::to_string(k), 2, c[k], c[(k + 1) % 4] - c[k], {0, 0, h}, 2));
     for (bool dm : {false, true}) {
-        BakeOptions o;
+        BakeOptions o = direct();
         o.dm = dm;
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
@@ -259,7 +266,7 @@ TEST(HardCases, ManyNearlyCollinearShadowEdges) {
         scene.surfaces.push_back(quad_grid("slat" + std::to_string(k), 2, {-0.4, 1e-6 * k, 0.75 + 1e-6 * k},
                                            {0.8, 1e-7 * k, 0}, {0, 0.05, 0}, 1));
     }
-    BakeOptions o;
+    BakeOptions o = direct();
     o.lights = LightModel::Area;
     o.refine_rounds = 1;
     const visdb::Bake b = bake(scene, o);
@@ -286,11 +293,10 @@ TEST(HardCases, ManyNearlyCollinearShadowEdges) {
 }
 
 TEST(HardCases, ReflectanceCloseToOneKeepsRadiosityBounded) {
-    // Direct light only (interreflection is not built yet): B = E + ρH exactly, finite, and
-    // the power reflected never exceeds the power received.
+    // Direct light: B = E + ρH exactly, and the power reflected never exceeds the power received
     visdb::Scene scene = base_scene();
     scene.materials[0].reflectance = {0.999, 0.999999, 0.99};
-    BakeOptions o;
+    BakeOptions o = direct();
     o.dm = false;
     const visdb::Bake b = bake(scene, o);
     expect_sane(b);
@@ -301,6 +307,42 @@ TEST(HardCases, ReflectanceCloseToOneKeepsRadiosityBounded) {
                 EXPECT_NEAR(b.mesh.radiosity[v].y, 0.999999 * b.mesh.irradiance[v].y, 1e-6);
                 EXPECT_LE(b.mesh.radiosity[v].y, b.mesh.irradiance[v].y);
             }
+}
+
+TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
+    // Interreflection in a closed box whose every surface reflects 99%: the solution converges,
+    // emitted = absorbed + escaped + unshot, nothing escapes a closed box, and no value is NaN,
+    // negative or larger than the enclosure bound E·A_L/(A_box·(1 − ρ)) allows on average.
+    visdb::Scene scene = base_scene();
+    scene.surfaces.push_back(grid("ceiling", 0, -1, 1, -1, 1, 1.5, 4, false));
+    const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    for (int k = 0; k < 4; ++k)
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 0, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
+                                           {0, 0, 1.5}, 4));
+    scene.materials[0].reflectance = {0.99, 0.99, 0.99};
+    BakeOptions o;  // interreflection until converged (the default)
+    o.dm = false;
+    const visdb::Bake b = bake(scene, o);
+    expect_sane(b);
+    const double emitted = stat(b, "energy_emitted_w");
+    EXPECT_GT(emitted, 0.0);
+    EXPECT_NEAR(stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"), emitted,
+                1e-6 * emitted);
+    EXPECT_LT(stat(b, "energy_escaped_w"), 1e-3 * emitted);
+    // Mean radiosity over the box's inner area (4 + 4 + 4·3 m² = 20 m², light excluded): at
+    // most the enclosure value (ΣE·A_L)/(A·(1 − ρ)) for the green channel
+    double sum = 0.0, area = 0.0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        if (b.mesh.triangle_surface[t] == 1) continue;
+        const auto& tri = b.mesh.triangles[t];
+        const double a = 0.5 * glm::length(glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
+                                                      b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
+        sum += a * (b.mesh.radiosity[tri.x].y + b.mesh.radiosity[tri.y].y + b.mesh.radiosity[tri.z].y) / 3.0;
+        area += a;
+    }
+    EXPECT_NEAR(area, 20.0, 1e-9);
+    EXPECT_LT(sum / area, 1.05 * kGreen * 1.0 / (20.0 * (1.0 - 0.99)));
+    EXPECT_GT(sum / area, 0.0);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -329,7 +371,7 @@ TEST(Cull, ReachDropsOnlyWhatLiesBeyondItWithinTheStatedBound) {
     visdb::Surface light2 = grid("light2", 1, 29.5, 30.5, -0.5, 0.5, 1.5, 1, false);
     scene.surfaces.push_back(floor2);
     scene.surfaces.push_back(light2);
-    BakeOptions full;
+    BakeOptions full = direct();
     full.dm = false;
     BakeOptions near = full;
     near.reach = 10.0;

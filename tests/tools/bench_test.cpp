@@ -64,6 +64,7 @@ TEST(Bench, QuickRunWritesCsvAndSummaryWithRealValues) {
     o.scenes.push_back({"room", generate_floor(room)});
     o.sizes = {400};
     o.scaling.dm = false;
+    o.scaling.bounces = 0;
     const std::vector<BenchRun> runs = run_bench(o);
     ASSERT_EQ(runs.size(), 12u + 1u);
     for (const BenchRun& r : runs) {

@@ -162,7 +162,8 @@ BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions
         it = ff_cache.emplace(key, hemicube_ff_error(options.method, options.resolution, sub)).first;
     r.ff_error = it->second;
 
-    if (field && r.triangles_out <= bench.field_error_max) {
+    // The reference is the exact direct irradiance: bakes with interreflection are not measured
+    if (field && options.bounces == 0 && r.triangles_out <= bench.field_error_max) {
         const radiosity::FieldError e = radiosity::field_error(
             s.scene, b.mesh, [&](const glm::dvec3& x, const glm::dvec3& n) { return field->irradiance(x, n); },
             {.subdivisions = bench.subdivisions});
@@ -397,6 +398,7 @@ std::vector<BakeOptions> settings_grid(bool quick, int threads) {
                 o.lights = model;
                 o.shading = shading;
                 o.threads = threads;
+                o.bounces = 0;  // direct light: the field error's reference is exact direct light
                 grid.push_back(o);
             }
     return grid;

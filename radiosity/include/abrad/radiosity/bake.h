@@ -8,7 +8,9 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "abrad/radiosity/indirect.h"
 #include "abrad/radiosity/shadow_edges.h"
 #include "abrad/radiosity/shoot.h"
 #include "abrad/visdb/model.h"
@@ -27,7 +29,16 @@ struct BakeOptions {
     Visibility method = Visibility::ABuffer;
     int resolution = 50;  ///< hemicube resolution R (even)
     int subpixels = 8;    ///< A-buffer mask side
-    int bounces = 0;      ///< 0 = direct light only (the paper's setting); more not yet built
+    /// Interreflection: -1 = shoot from reflecting elements until the unshot fraction is
+    /// below `converge` (the default), 0 = direct light only (the paper's setting), N = N
+    /// bounces (Jacobi sweeps).
+    int bounces = -1;
+    double converge = 0.005;       ///< unshot power / emitted power at which to stop
+    double element_size = 0.5;     ///< metres: element grid of the interreflection solution
+    double overrelaxation = 1.0;   ///< Southwell ω in [1, 2) when converging
+    bool ambient = true;           ///< spread what is left unshot as the ambient term
+    /// When set, receives the convergence curve (unshot fraction against shots and time).
+    std::vector<ConvergenceSample>* convergence = nullptr;
     Shading shading = Shading::Exact;
     int threads = 0;      ///< 0 = all cores
     /// Light reach in metres (0 = unlimited): a light shoots, shades and casts shadow edges only
@@ -54,16 +65,18 @@ public:
 /// Progress of a long bake: a stage name and `done` of `total` units.
 using ProgressFn = std::function<void(std::string_view stage, std::size_t done, std::size_t total)>;
 
-/// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces 0, threads >= 0,
+/// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces in [-1, 1000],
+/// converge in (0, 1), element_size > 0, overrelaxation in [1, 2), threads >= 0,
 /// reach >= 0,
 /// dm_min_angle in [0, 20.7], refine_rounds in [0, 20], refine_tolerance > 0,
 /// refine_min_edge > 0); throws BakeError naming the option and value.
 void validate(const BakeOptions& options);
 
-/// Bakes direct light into `scene`. Without discontinuity meshing the result's mesh is the
-/// scene's, with one vertex per (surface, position, face normal); with it, each planar region
-/// is re-meshed (conforming: no T-vertices) and every vertex, old and new, is shaded by the
-/// shading mode. Parameters and statistics are filled, `name` is options.name.
+/// Bakes direct light into `scene`, then (bounces != 0) interreflection: the indirect part,
+/// interpolated from the element solution, is added to every vertex's direct value. Without
+/// discontinuity meshing the result's mesh is the scene's, with one vertex per (surface,
+/// position, face normal); with it, each planar region is re-meshed (conforming: no
+/// T-vertices) and every vertex, old and new, is shaded by the shading mode. Parameters and statistics are filled, `name` is options.name.
 visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
                  const ProgressFn& progress = {});
 

@@ -1,0 +1,128 @@
+#pragma once
+// Interreflection by progressive refinement (Cohen, Chen, Wallace & Greenberg 1988) seen as
+// Southwell relaxation (Gortler, Cohen & Slusallek 1993): reflecting elements shoot their
+// unshot radiosity with the same A-buffer hemicube as the lights, in order of unshot power,
+// optionally over-relaxed; what is left unshot at the end is spread as the ambient term.
+//
+// Elements are clusters of the scene's triangles: every planar region (coplanar, connected
+// triangles of one surface) is cut by a square grid of side `element_size` in its plane, and
+// the triangles (those larger than a cell subdivided first) whose centroid falls in one cell
+// make one element. The element's radiosity is constant; values between elements are
+// interpolated bilinearly from the cell centres of the region's grid.
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "abrad/radiosity/shoot.h"
+#include "abrad/visdb/model.h"
+
+namespace abrad::radiosity {
+
+/// The scene as the interreflection solver sees it. All spans are per triangle (patch)
+/// except `region_normal`, which is per region; coordinates in metres.
+struct IndirectInput {
+    std::span<const Patch> patches;
+    std::span<const visdb::Rgb> reflectance;
+    std::span<const visdb::Rgb> emittance;      ///< > 0 marks a light-source triangle
+    std::span<const std::uint32_t> region;      ///< planar region of each triangle
+    std::span<const glm::dvec3> region_normal;  ///< unit front normal of each region
+};
+
+struct IndirectOptions {
+    /// Number of bounces (each one a Jacobi sweep: every element shoots what it received in
+    /// the previous bounce), or 0 to converge on the unshot fraction instead.
+    int bounces = 0;
+    double converge = 0.005;      ///< stop when unshot power / emitted power falls below this
+    double element_size = 0.5;    ///< metres: side of the element grid in each region
+    double overrelaxation = 1.0;  ///< Southwell factor ω in [1, 2): shoot ω × unshot
+    bool ambient = true;          ///< spread what is left unshot as the ambient term
+    std::size_t max_shots = 2'000'000;   ///< a safety bound on shots when converging
+    std::size_t row_cache_bytes = std::size_t{2} << 30;  ///< form-factor rows kept for reuse
+    Visibility method = Visibility::ABuffer;
+    int resolution = 50;
+    int subpixels = 8;
+};
+
+/// One point of the convergence curve.
+struct ConvergenceSample {
+    std::size_t shots = 0;
+    double seconds = 0.0;
+    double unshot_fraction = 0.0;  ///< Σ|unshot power| / emitted power
+};
+
+/// Energy bookkeeping of the whole solution (direct shots from the lights included), in W
+/// (or lm), mean over RGB. emitted = absorbed + escaped + unshot, up to rounding.
+struct EnergyBalance {
+    double emitted = 0.0;
+    double absorbed = 0.0;  ///< by fronts ((1 − ρ) of what they receive) and by backs (all)
+    double escaped = 0.0;   ///< what no hemicube pixel caught: through openings, to the sky
+    double unshot = 0.0;    ///< received and reflected but not yet shot (signed)
+    double ambient = 0.0;   ///< the part of `unshot` spread by the ambient term
+};
+
+/// The solved interreflection: indirect irradiance per element, and a way to read it at any
+/// point of a region.
+struct IndirectSolution {
+    /// Interpolated indirect irradiance (W/m² or lux, RGB) at `p` in planar region `region`:
+    /// bilinear between the centres of the region's grid cells, over the cells that hold an
+    /// element (0 in a region without elements).
+    visdb::Rgb at(std::uint32_t region, const glm::dvec3& p) const;
+
+    // What the solution did
+    std::size_t pieces = 0;           ///< triangles the hemicubes rasterize
+    std::size_t shots = 0;            ///< element shots (the lights' not counted)
+    std::size_t rows_computed = 0;    ///< hemicubes placed at elements
+    std::size_t rows_cached = 0;      ///< form-factor rows kept for reuse at the end
+    int bounces_done = 0;             ///< complete bounces (bounce mode)
+    visdb::Rgb ambient_irradiance{0.0};  ///< added to every element by the ambient term
+    double seconds = 0.0;
+    EnergyBalance energy;
+    std::vector<ConvergenceSample> curve;
+
+    /// One element: a cell of its region's grid.
+    struct Element {
+        std::uint32_t region = 0;
+        glm::ivec2 cell{0};
+        glm::dvec3 centroid{0.0};
+        double area = 0.0;             ///< m²
+        visdb::Rgb reflectance{0.0};   ///< area-weighted over its triangles
+        visdb::Rgb direct{0.0};        ///< irradiance from the lights' hemicubes
+        visdb::Rgb indirect{0.0};      ///< irradiance from other elements (+ ambient)
+    };
+    std::vector<Element> elements;
+
+    /// Each region's grid: origin and in-plane axes; cell (i, j) covers
+    /// origin + [i, i+1)·size·u + [j, j+1)·size·v.
+    struct Grid {
+        glm::dvec3 origin{0.0}, u{1.0, 0.0, 0.0}, v{0.0, 1.0, 0.0};
+    };
+    std::vector<Grid> grids;
+    std::unordered_map<std::uint64_t, std::uint32_t> cell_element;  ///< cell_key → element
+    double element_size = 0.5;
+
+    static std::uint64_t cell_key(std::uint32_t region, int i, int j);
+};
+
+using IndirectProgressFn = std::function<void(std::string_view stage, std::size_t done,
+                                              std::size_t total, double unshot_fraction)>;
+
+/// Checks options (bounces in [0, 1000], converge in (0, 1), element_size > 0,
+/// overrelaxation in [1, 2)); throws BakeError naming the option.
+void validate(const IndirectOptions& options);
+
+/// Solves the interreflection of `input`: shoots once from every light triangle onto the
+/// elements, then from the elements until `bounces` bounces are done or the unshot fraction
+/// is below `converge`. Throws BakeError when there is no light.
+IndirectSolution solve_indirect(const IndirectInput& input, const IndirectOptions& options,
+                                const IndirectProgressFn& progress = {});
+
+}  // namespace abrad::radiosity
