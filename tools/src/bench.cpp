@@ -3,12 +3,13 @@
 
 #include "abrad/tools/bench.h"
 
+#include <malloc.h>
 #include <spawn.h>
-#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -46,24 +47,42 @@ double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Peak resident memory: Linux resets VmHWM when "5" is written to /proc/self/clear_refs.
-bool reset_peak_memory() {
-    std::ofstream f("/proc/self/clear_refs");
-    if (!f) return false;
-    f << "5";
-    f.flush();
-    return static_cast<bool>(f);
+// Resident memory now, MB (/proc/self/statm: size resident ... in pages).
+double resident_mb() {
+    std::ifstream f("/proc/self/statm");
+    double size = 0.0, resident = 0.0;
+    f >> size >> resident;
+    return resident * double(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
-double peak_memory_mb() {
-    std::ifstream f("/proc/self/status");
-    std::string line;
-    while (std::getline(f, line))
-        if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-    rusage u{};
-    getrusage(RUSAGE_SELF, &u);
-    return double(u.ru_maxrss) / 1024.0;
-}
+// Peak resident memory over a stretch of work: a thread samples /proc/self/statm every 2 ms
+// (Linux's VmHWM cannot be reset everywhere: clear_refs is not always honoured), and the
+// process peak (VmHWM) is kept as an upper bound.
+class PeakMemory {
+public:
+    PeakMemory() : m_peak(resident_mb()), m_thread([this] {
+        while (!m_stop.load()) {
+            const double r = resident_mb();
+            double p = m_peak.load();
+            while (r > p && !m_peak.compare_exchange_weak(p, r)) {}
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+    }) {}
+    ~PeakMemory() { stop(); }
+    double stop() {
+        if (m_thread.joinable()) {
+            m_stop = true;
+            m_thread.join();
+        }
+        const double r = resident_mb();
+        return std::max(m_peak.load(), r);
+    }
+
+private:
+    std::atomic<double> m_peak;
+    std::atomic<bool> m_stop{false};
+    std::thread m_thread;
+};
 
 std::string first_line_of(const std::string& path, const std::string& key) {
     std::ifstream f(path);
@@ -141,14 +160,15 @@ BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions
     r.options = options;
     r.options.name = "bench";
     r.triangles_in = s.scene.triangle_count();
-    r.peak_is_process = !reset_peak_memory();
+    malloc_trim(0);  // hand memory freed by earlier runs back, so the peak is this run's
+    PeakMemory peak;
     const auto t0 = Clock::now();
     visdb::Bake b = radiosity::bake(s.scene, r.options);
     r.seconds_wall = seconds_since(t0);
     const auto t1 = Clock::now();
     store.add_bake(b);
     r.seconds_store = seconds_since(t1);
-    r.peak_rss_mb = peak_memory_mb();
+    r.peak_rss_mb = peak.stop();
     r.statistics = b.statistics;
     r.triangles_out = b.mesh.triangles.size();
     r.light_triangles = static_cast<std::size_t>(stat_of(b.statistics, "light_triangles"));
@@ -498,8 +518,11 @@ std::vector<BenchRun> run_bench(const BenchOptions& bench) {
                      s.name.c_str(), r.triangles_in, r.triangles_out, r.light_triangles, r.seconds_wall,
                      r.peak_rss_mb);
     };
-    for (std::size_t size : bench.sizes) scale_run(floor_for_triangles(size, 1), "scaling");
+    // Small before large: the process's resident memory is what is measured
     for (int lights : bench.light_counts) scale_run(floor_for_triangles(bench.lights_at, lights), "lights");
+    std::vector<std::size_t> sizes = bench.sizes;
+    std::sort(sizes.begin(), sizes.end());
+    for (std::size_t size : sizes) scale_run(floor_for_triangles(size, 1), "scaling");
     fs::remove(db);
 
     write_csv(bench.out / "bench.csv", runs, "grid");

@@ -45,8 +45,8 @@ struct BenchRun {
     radiosity::BakeOptions options;
     double seconds_wall = 0.0;  ///< the bake call, wall clock
     double seconds_store = 0.0;  ///< writing the bake to the database
-    double peak_rss_mb = 0.0;   ///< peak resident memory during the bake and store (VmHWM)
-    bool peak_is_process = false;  ///< true when the peak could not be reset (process lifetime)
+    double peak_rss_mb = 0.0;   ///< peak resident memory of the process during the bake and store
+                                ///< (sampled every 2 ms), MB
     double ff_error = -1.0;     ///< hemicube form-factor error, relative L1 (-1: not measured)
     double field_error = -1.0;  ///< field error, relative L1 (-1: not measured)
     std::vector<std::pair<std::string, double>> statistics;  ///< the bake's own
