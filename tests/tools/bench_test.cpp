@@ -76,7 +76,9 @@ TEST(Bench, QuickRunWritesCsvAndSummaryWithRealValues) {
         EXPECT_LT(r.field_error, 1.0);
         // Every ray from a ceiling panel in a closed room hits something: Σ F = 1
         EXPECT_NEAR(r.stat("mean_form_factor_sum"), 1.0, 1e-6) << label(r.options);
-        if (r.options.dm) EXPECT_GT(r.triangles_out, r.triangles_in);
+        if (r.options.dm) {
+            EXPECT_GT(r.triangles_out, r.triangles_in);
+        }
     }
     // Exact shading with DM beats patch shading without it on the same hemicube
     auto find = [&](bool dm, radiosity::Shading s) {
@@ -156,8 +158,8 @@ TEST(FloorGen, DoorsOpenInnerWallsOnly) {
 TEST(FloorGen, SizesFollowTheTarget) {
     for (std::size_t target : {3000u, 30000u, 100000u}) {
         const std::size_t n = generate_floor(floor_for_triangles(target)).triangle_count();
-        EXPECT_GT(double(n), target / 1.5) << target;
-        EXPECT_LT(double(n), target * 1.5) << target;
+        EXPECT_GT(double(n), double(target) / 1.5) << target;
+        EXPECT_LT(double(n), double(target) * 1.5) << target;
     }
 }
 

@@ -270,21 +270,19 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
     if (scaling || lights) {
         std::ofstream gp(out / "scaling.gp");
         const std::string data = (out / "scaling.dat").string();
-        gp << "set terminal pngcairo size 1280,520 font 'sans,10'\nset output '" << (out / "scaling.png").string()
-           << "'\nset multiplot layout 1,2\nset logscale xy\nset grid\nset key top left\n"
-           << "set xlabel 'input triangles'\nset ylabel 'seconds'\nset y2label 'peak memory (MB)'\n"
-           << "set y2tics\nset logscale y2\nset title 'Generated floors, default settings'\n";
+        const int panels = (scaling ? 1 : 0) + (lights ? 1 : 0);
+        gp << "set terminal pngcairo size " << 640 * panels << ",520 font 'sans,10'\nset output '"
+           << (out / "scaling.png").string() << "'\nset multiplot layout 1," << panels
+           << "\nset logscale xy\nset grid\nset key top left\n"
+           << "set ylabel 'seconds'\nset y2label 'peak memory (MB)'\nset y2tics\nset logscale y2\n";
         if (scaling)
-            gp << "plot '" << data << "' index 0 using 1:2 with linespoints pt 7 title 'bake wall time', '" << data
-               << "' index 0 using 1:3 axes x1y2 with linespoints pt 5 title 'peak memory'\n";
-        else
-            gp << "plot NaN notitle\n";
-        gp << "set xlabel 'light triangles'\nset title 'Light triangles (fixed floor)'\n";
+            gp << "set xlabel 'input triangles'\nset title 'Generated floors: " << label(bench.scaling)
+               << "' noenhanced\nplot '" << data << "' index 0 using 1:2 with linespoints pt 7 title 'bake wall time', '"
+               << data << "' index 0 using 1:3 axes x1y2 with linespoints pt 5 title 'peak memory'\n";
         if (lights)
-            gp << "plot '" << data << "' index 1 using 4:2 with linespoints pt 7 title 'bake wall time', '" << data
+            gp << "set xlabel 'light triangles'\nset title 'Light triangles (fixed floor)'\nplot '" << data
+               << "' index 1 using 4:2 with linespoints pt 7 title 'bake wall time', '" << data
                << "' index 1 using 4:3 axes x1y2 with linespoints pt 5 title 'peak memory'\n";
-        else
-            gp << "plot NaN notitle\n";
         gp << "unset multiplot\n";
     }
     if (!bench.plot) return made;
