@@ -399,8 +399,9 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     // the deepest of their depths. Once the union is full, a fragment deeper than that depth
     // gets nothing (PropFF sorts it behind them), so a piece whose nearest depth lies behind
     // the closed depth of every pixel of its bounding rectangle is not rasterized. Form
-    // factors are unchanged; occlusion pairs of such hidden pieces are not recorded (the
-    // bake's shaft queries find every occluder anyway).
+    // factors are unchanged. Only when no occlusion lists are asked for: Algorithm 2 lists
+    // hidden patches behind their occluders too.
+    const bool cull = !options.occlusion;
     const std::size_t npix = hc.pixel_count();
     std::vector<Mask<S>> covered(npix);
     std::vector<float> closed_depth(npix, std::numeric_limits<float>::infinity());
@@ -435,7 +436,7 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
                                      frame.to_local(patches[id].p[2])};
         const bool opaque = patches[id].opacity >= 1.0;
         project_patch(hc, local, [&](int face, const Poly2& p, const DepthPlane& plane) {
-            if (hidden(face, p, plane.fallback)) {
+            if (cull && hidden(face, p, plane.fallback)) {
                 ++result.hidden_pieces;
                 return;
             }

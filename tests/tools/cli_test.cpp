@@ -123,7 +123,7 @@ TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
 TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
     const std::string db = baked_db();
     const std::string before = bytes(db);
-    for (const std::string opts : {"--resolution 51", "--subpixels 5", "--bounces 2", "--method nope",
+    for (const std::string opts : {"--resolution 51", "--subpixels 5", "--bounces -3", "--method nope",
                                    "--shading nope", "--unknown-option 1", "--dm maybe", "--lights sun",
                                    "--dm-angle 30", "--refine-rounds -1", "--refine-tolerance 0",
                                    "--refine-min-edge -2"}) {
@@ -256,8 +256,10 @@ std::map<std::string, std::string> key_values(const std::string& text) {
 // 2-triangle walls and the floor's shadow to a small fraction.
 TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     const std::string db = baked_db();  // bake "first": the defaults, --dm on
-    ASSERT_EQ(run("bake --db " + db + " --name plain --dm off").status, 0);
-    const Result on = run("field-error --db " + db + " --bake first");
+    // The reference is exact direct light: both bakes direct light only
+    ASSERT_EQ(run("bake --db " + db + " --name direct --bounces 0").status, 0);
+    ASSERT_EQ(run("bake --db " + db + " --name plain --dm off --bounces 0").status, 0);
+    const Result on = run("field-error --db " + db + " --bake direct");
     const Result off = run("field-error --db " + db + " --bake plain");
     ASSERT_EQ(on.status, 0) << on.output;
     ASSERT_EQ(off.status, 0) << off.output;
