@@ -189,7 +189,8 @@ TEST_F(Cli, KilledBakeLeavesDatabaseReadableAndUnchanged) {
 // Import, bake, export through the command line; the exported PLY's header is the contract and
 // an unoccluded floor vertex carries the closed-form irradiance of the 1×1 m light.
 TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
-    const Result r = run("run " + sample("paper_simple/paper_occluder.obj") + " --out " + m_dir.string());
+    const Result r = run("run " + sample("paper_simple/paper_occluder.obj") + " --out " + m_dir.string() +
+                         " --bounces 0");  // direct light: compared with the exact direct field
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string ply = bytes(path("paper_occluder.ply"));
     const std::string header_end = "end_header\n";
@@ -404,8 +405,8 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     const Result imported = run("import " + write("survey.obj", shifted) + " --db " + at_survey);
     ASSERT_EQ(imported.status, 0) << imported.output;
     for (const std::string& db : {at_origin, at_survey}) {
-        ASSERT_EQ(run("bake --db " + db + " --name off --dm off").status, 0);
-        ASSERT_EQ(run("bake --db " + db + " --name dm").status, 0);
+        ASSERT_EQ(run("bake --db " + db + " --name off --dm off --bounces 0").status, 0);
+        ASSERT_EQ(run("bake --db " + db + " --name dm --bounces 0").status, 0);
     }
 
     // Without meshing the meshes are the same: positions to 1e-8 m, irradiance to 1e-5
@@ -521,7 +522,7 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
     ASSERT_EQ(imported.status, 0) << imported.output;
     EXPECT_NE(imported.output.find("emitters added: 6"), std::string::npos) << imported.output;
     EXPECT_NE(imported.output.find("coplanar overlapping triangle pairs (z-fighting): "), std::string::npos);
-    const Result baked = run("bake --db " + db + " --name patch --dm off --shading patch");
+    const Result baked = run("bake --db " + db + " --name patch --dm off --shading patch --bounces 0");
     ASSERT_EQ(baked.status, 0) << baked.output;
     EXPECT_NE(baked.output.find(" lux"), std::string::npos) << baked.output;
     EXPECT_NE(baked.output.find(" lm (mean over RGB)"), std::string::npos) << baked.output;
@@ -561,7 +562,7 @@ TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
     const Result imported = run("import " + std::string(ABRAD_SHARED_DATA) + "/dxf/3dface.dxf --db " + db +
                                 " --scene " + sample("dxf_plan/scene.toml"));
     ASSERT_EQ(imported.status, 0) << imported.output;
-    const Result baked = run("bake --db " + db + " --name dm");
+    const Result baked = run("bake --db " + db + " --name dm --bounces 0");
     ASSERT_EQ(baked.status, 0) << baked.output;
     const abrad::visdb::Store store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
     const abrad::visdb::Scene scene = store.load_scene();
