@@ -1,4 +1,5 @@
-// abrad: the command line. Subcommands import, bake, export, info, probe, field-error, run.
+// abrad: the command line. Subcommands import, bake, export, info, probe, field-error, run,
+// generate, bench.
 //
 // Exit status: 0 success; 1 failure (I/O, internal); 2 bad input or usage (a malformed model,
 // an unknown option, a scene that cannot be baked). Errors go to stderr as
@@ -33,6 +34,8 @@
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/field_error.h"
 #include "abrad/radiosity/indirect.h"
+#include "abrad/tools/bench.h"
+#include "abrad/tools/floor_gen.h"
 #include "abrad/visdb/store.h"
 
 namespace fs = std::filesystem;
@@ -82,6 +85,7 @@ struct BakeArgs {
     int refine_rounds = 4;
     double refine_tolerance = 0.1;
     double refine_min_edge = 0.05;
+    double reach = 0.0;
 };
 
 void add_import_options(CLI::App& app, ImportArgs& a) {
@@ -159,6 +163,9 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
         ->capture_default_str();
     app.add_option("--refine-min-edge", a.refine_min_edge, "Shortest edge refinement splits, metres")
         ->capture_default_str();
+    app.add_option("--reach", a.reach, "Light reach in metres: a light lights, shades and shadows only "
+                                       "what lies within this distance (per axis) of it (0 = unlimited)")
+        ->capture_default_str();
 }
 
 radiosity::BakeOptions to_options(const BakeArgs& a) {
@@ -186,6 +193,7 @@ radiosity::BakeOptions to_options(const BakeArgs& a) {
     o.refine_rounds = a.refine_rounds;
     o.refine_tolerance = a.refine_tolerance;
     o.refine_min_edge = a.refine_min_edge;
+    o.reach = a.reach;
     try {
         radiosity::validate(o);
     } catch (const radiosity::BakeError& e) {
@@ -652,6 +660,156 @@ void field_error(const std::string& db, const std::string& bake_name, int subdiv
 }
 
 // ---------------------------------------------------------------------------------------
+// Generated floors and the benchmark (tools/src/floor_gen.cpp, tools/src/bench.cpp)
+
+struct FloorArgs {
+    std::vector<int> rooms{1, 1};
+    double cell = 0.5;
+    int furniture = 2;
+    int lights = 1;
+    std::size_t triangles = 0;  ///< > 0: choose rooms and cell for about this many triangles
+};
+
+void add_floor_options(CLI::App& app, FloorArgs& a) {
+    app.add_option("--rooms", a.rooms, "Rooms along x and y (5 x 4 x 3 m each)")->expected(2)->capture_default_str();
+    app.add_option("--cell", a.cell, "Largest triangle leg on floors, ceilings, walls, furniture (m)")
+        ->capture_default_str();
+    app.add_option("--furniture", a.furniture, "Pieces of furniture per room (0..16)")->capture_default_str();
+    app.add_option("--lights", a.lights, "Ceiling panels per room (0..16, two triangles each)")->capture_default_str();
+    app.add_option("--triangles", a.triangles, "Choose rooms and cell for about this many triangles "
+                                               "(overrides --rooms and --cell)");
+}
+
+tools::FloorOptions to_floor(const FloorArgs& a) {
+    tools::FloorOptions o;
+    if (a.triangles > 0) {
+        if (a.triangles > 50'000'000) bad_input("--triangles must be at most 50000000");
+        o = tools::floor_for_triangles(a.triangles, std::clamp(a.lights, 0, 16));
+    } else {
+        o.rooms_x = a.rooms.at(0);
+        o.rooms_y = a.rooms.at(1);
+        o.cell = a.cell;
+    }
+    o.furniture = a.furniture;
+    o.lights = a.lights;
+    try {
+        tools::validate(o);
+    } catch (const std::invalid_argument& e) {
+        bad_input(e.what());
+    }
+    return o;
+}
+
+void generate(const FloorArgs& a, const std::string& db) {
+    const tools::FloorOptions o = to_floor(a);
+    const visdb::Scene scene = tools::generate_floor(o);
+    std::cout << "generated " << tools::to_string(o) << "\n";
+    import_into(scene, db);
+}
+
+struct BenchArgs {
+    std::string out;
+    std::vector<std::string> models;
+    std::string scene;
+    std::vector<std::string> sizes;
+    std::vector<int> light_counts;
+    std::size_t lights_at = 30000;
+    bool quick = false;
+    bool no_room = false;
+    int subdivisions = 2;
+    std::size_t field_error_max = 200000;
+    BakeArgs bake;
+};
+
+void add_bench_options(CLI::App& app, BenchArgs& a) {
+    app.add_option("--out", a.out, "Output directory: bench.csv, scaling.csv, speed_error.png, "
+                                   "scaling.png, summary.md")->required();
+    app.add_option("--model", a.models, "Model files baked over the settings grid besides the "
+                                        "generated room (imported as by abrad import)");
+    app.add_option("--scene", a.scene, "Scene file (TOML) applied to the --model files");
+    app.add_flag("--no-room", a.no_room, "Leave out the generated one-room scene from the grid");
+    app.add_flag("--quick", a.quick, "A small grid (Z-buffer R50, A-buffer R26 4x4 and R50 8x8; DM off "
+                                     "and area) instead of the full one");
+    app.add_option("--sizes", a.sizes, "Scaling: generated floors of about these many triangles "
+                                       "(e.g. 3k 30k 300k 1M), baked with the bake options")
+        ->delimiter(',');
+    app.add_option("--light-counts", a.light_counts, "Light scaling: ceiling panels per room, on a floor "
+                                                     "of --lights-at triangles")
+        ->delimiter(',');
+    app.add_option("--lights-at", a.lights_at, "Triangles of the light-scaling floor")->capture_default_str();
+    app.add_option("--subdivisions", a.subdivisions, "Field error: k x k sample points per triangle")
+        ->capture_default_str();
+    app.add_option("--field-error-max", a.field_error_max, "Measure the field error only for bakes of "
+                                                           "at most this many triangles")
+        ->capture_default_str();
+    add_bake_options(app, a.bake);
+}
+
+std::size_t parse_count(const std::string& text) {
+    std::size_t mult = 1;
+    std::string digits = text;
+    if (!digits.empty() && (digits.back() == 'k' || digits.back() == 'K')) mult = 1000, digits.pop_back();
+    else if (!digits.empty() && (digits.back() == 'm' || digits.back() == 'M')) mult = 1000000, digits.pop_back();
+    std::size_t v = 0;
+    const auto [p, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
+    if (ec != std::errc() || p != digits.data() + digits.size() || v == 0 || v > 50'000'000 / mult)
+        bad_input("--sizes: '" + text + "' is not a triangle count in [1, 50M] (digits with an optional k or M)");
+    return v * mult;
+}
+
+void bench(const BenchArgs& a, int argc, char** argv) {
+    if (a.subdivisions < 1 || a.subdivisions > 16)
+        bad_input("--subdivisions must be in [1, 16], got " + std::to_string(a.subdivisions));
+    for (int n : a.light_counts)
+        if (n < 1 || n > 16) bad_input("--light-counts must be in [1, 16], got " + std::to_string(n));
+    if (a.lights_at < 100 || a.lights_at > 50'000'000) bad_input("--lights-at must be in [100, 50000000]");
+    tools::BenchOptions o;
+    o.out = a.out;
+    o.quick = a.quick;
+    o.subdivisions = a.subdivisions;
+    o.field_error_max = a.field_error_max;
+    o.scaling = to_options(a.bake);
+    o.threads = o.scaling.threads;
+    for (const std::string& s : a.sizes) o.sizes.push_back(parse_count(s));
+    o.light_counts = a.light_counts;
+    o.lights_at = a.lights_at;
+    for (int i = 0; i < argc; ++i) o.command += (i ? " " : "") + std::string(i ? argv[i] : "abrad");
+    if (!a.no_room) {
+        tools::FloorOptions room;
+        room.cell = 0.5;
+        room.furniture = 3;
+        room.lights = 2;
+        o.scenes.push_back({"generated room (" + tools::to_string(room) + ")", tools::generate_floor(room)});
+    }
+    for (const std::string& m : a.models) {
+        ImportArgs ia;
+        ia.models = {m};
+        ia.scene = a.scene;
+        std::ostringstream discard;
+        auto* old = std::cout.rdbuf(discard.rdbuf());  // the import report is not the bench's output
+        visdb::Scene scene;
+        try {
+            scene = read_models(ia);
+        } catch (...) {
+            std::cout.rdbuf(old);
+            throw;
+        }
+        std::cout.rdbuf(old);
+        o.scenes.push_back({fs::path(m).filename().string(), std::move(scene)});
+    }
+    if (o.scenes.empty() && o.sizes.empty() && o.light_counts.empty())
+        bad_input("nothing to run: give --model, --sizes or --light-counts, or drop --no-room");
+    std::vector<tools::BenchRun> runs;
+    try {
+        runs = tools::run_bench(o);
+    } catch (const radiosity::BakeError& e) {
+        bad_input(e.what());
+    }
+    std::cout << "wrote " << (o.out / "bench.csv").string() << ", " << (o.out / "scaling.csv").string() << ", "
+              << (o.out / "summary.md").string() << " (" << runs.size() << " runs)\n";
+}
+
+// ---------------------------------------------------------------------------------------
 
 int run_cli(int argc, char** argv) {
     CLI::App app{"abrad: lighting bakes for buildings with an A-buffer hemicube radiosity"};
@@ -707,6 +865,17 @@ int run_cli(int argc, char** argv) {
     add_import_options(*run_cmd, import_args);
     add_bake_options(*run_cmd, bake_args);
 
+    FloorArgs floor_args;
+    auto* generate_cmd = app.add_subcommand("generate", "Generate a building floor (rooms, doors, "
+                                                        "furniture, ceiling lights) into a visual database");
+    generate_cmd->add_option("--db", db, "Visual database, created when missing")->required();
+    add_floor_options(*generate_cmd, floor_args);
+
+    BenchArgs bench_args;
+    auto* bench_cmd = app.add_subcommand("bench", "Speed against error over a grid of bake settings, "
+                                                  "and scaling on generated floors");
+    add_bench_options(*bench_cmd, bench_args);
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -732,6 +901,10 @@ int run_cli(int argc, char** argv) {
             field_error(db, bake_name, subdivisions);
         } else if (cmd == "info") {
             print_info(db);
+        } else if (cmd == "generate") {
+            generate(floor_args, db);
+        } else if (cmd == "bench") {
+            bench(bench_args, argc, argv);
         } else if (cmd == "run") {
             const radiosity::BakeOptions options = to_options(bake_args);
             const visdb::Scene scene = read_models(import_args);

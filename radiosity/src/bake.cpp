@@ -26,6 +26,7 @@
 #include <tbb/parallel_for.h>
 
 #include "abrad/radiosity/bvh.h"
+#include "abrad/radiosity/cull.h"
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/dm_mesh.h"
 #include "abrad/radiosity/exact.h"
@@ -149,9 +150,17 @@ bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
 // Exact direct irradiance at any point from every light; occluders from a conservative query
 // of the box around the point and each light.
 visdb::Rgb exact_irradiance(const Work& w, const Bvh& bvh, std::span<const std::uint32_t> lights,
-                            const glm::dvec3& x, const glm::dvec3& n, std::vector<const Patch*>& occ) {
+                            const glm::dvec3& x, const glm::dvec3& n, std::vector<const Patch*>& occ,
+                            double reach) {
     visdb::Rgb h(0.0);
     for (const std::uint32_t l : lights) {
+        const Patch& lp = w.patches[l];
+        // Behind the light's plane (it gives nothing), or beyond its reach (cull.h)
+        if (glm::dot(x - lp.p[0], glm::cross(lp.p[1] - lp.p[0], lp.p[2] - lp.p[0])) <= 0.0) continue;
+        if (reach > 0.0) {
+            const glm::dvec3 d = glm::abs(x - (lp.p[0] + lp.p[1] + lp.p[2]) / 3.0);
+            if (d.x > reach || d.y > reach || d.z > reach) continue;
+        }
         occ.clear();
         for_each_shadow_candidate(bvh, w.patches, l, x, [&](std::uint32_t id) { occ.push_back(&w.patches[id]); });
         h += w.emittance[l] * visible_form_factor(x, n, w.patches[l], occ);
@@ -322,6 +331,8 @@ void validate(const BakeOptions& o) {
                              .converge = o.converge,
                              .element_size = o.element_size,
                              .overrelaxation = o.overrelaxation});
+    if (!(o.reach >= 0.0 && o.reach < 1e7))
+        throw BakeError("--reach must be >= 0 metres (0 = unlimited), got " + std::to_string(o.reach));
     if (o.threads < 0) throw BakeError("--threads must be >= 0, got " + std::to_string(o.threads));
     if (!(o.dm_min_angle >= 0.0 && o.dm_min_angle <= 20.7))
         throw BakeError("--dm-angle must be in [0, 20.7] degrees, got " + std::to_string(o.dm_min_angle));
@@ -411,6 +422,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     std::size_t shadow_receivers = 0, shadow_occluders_listed = 0, shadow_occluders_added = 0;
     const Bvh bvh(w.patches);
     double ff_sum_total = 0.0, seconds_shoot = 0.0, seconds_shade = 0.0, seconds_edges = 0.0;
+    double seconds_occlusion = 0.0;
     if (progress) progress("shoot", 0, lights.size());
 
     tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
@@ -421,6 +433,10 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         const glm::dvec3 normal = unit_normal(light);
         ShootOptions so = shoot_options;
         so.exclude = l;
+        // Culling: only triangles in front of the light and within its reach (cull.h)
+        const std::vector<std::uint32_t> near = light_candidates(bvh, w.patches, l, options.reach);
+        const std::vector<std::uint32_t> near_vertices = vertices_of(near, w.mesh.triangles);
+        so.only = &near;
         const ShootResult shot = shoot(light_frame(light), w.patches, hemicube, so);
         const double t_shoot = seconds_since(t0);
 
@@ -437,13 +453,14 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
             // the light's centroid), completed by a conservative bounding-volume query of the
             // region between the vertex and the light: occluders that hide only part of the
             // light (penumbra) may be invisible from the centroid.
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 64), [&](const auto& range) {
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, near_vertices.size(), 64), [&](const auto& range) {
                 std::vector<std::uint32_t> ids, listed, touched;
                 std::vector<const Patch*> occ;
                 VisibleStats vs;
                 vs.touched = &touched;
                 std::size_t missed_here = 0;
-                for (std::size_t v = range.begin(); v != range.end(); ++v) {
+                for (std::size_t vi = range.begin(); vi != range.end(); ++vi) {
+                    const std::uint32_t v = near_vertices[vi];
                     const glm::dvec3 x = w.mesh.positions[v];
                     if (glm::dot(x - light.p[0], normal) <= 0.0) continue;  // behind the light
                     listed.clear();
@@ -479,13 +496,14 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         std::size_t receivers = 0, listed_total = 0, added_total = 0;
         const auto t2 = Clock::now();
         if (dm) {
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nt, 32), [&](const auto& range) {
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, near.size(), 32), [&](const auto& range) {
                 std::vector<std::pair<std::uint32_t, ShadowSegment>> here;
                 std::vector<std::uint32_t> ids;
                 std::vector<const Patch*> occ;
                 ShadowStats s;
                 std::size_t rec = 0, lis = 0, add = 0;
-                for (std::size_t j = range.begin(); j != range.end(); ++j) {
+                for (std::size_t ji = range.begin(); ji != range.end(); ++ji) {
+                    const std::size_t j = near[ji];
                     if (j == l || emits(w.emittance[j])) continue;
                     const Patch& r = w.patches[j];
                     const glm::dvec3 rn = unit_normal(r);
@@ -501,12 +519,9 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                         if (p.occluder != l && can_occlude(w.patches[p.occluder], light, r))
                             ids.push_back(p.occluder);
                     const std::size_t n_listed = ids.size();
-                    Box box;
-                    for (int k = 0; k < 3; ++k) {
-                        box.grow(light.p[k]);
-                        box.grow(r.p[k]);
-                    }
-                    bvh.query(box, [&](std::uint32_t id) {
+                    // Shaft of light and receiver: the convex hull of their six corners
+                    const glm::dvec3 corners[6] = {light.p[0], light.p[1], light.p[2], r.p[0], r.p[1], r.p[2]};
+                    bvh.query(Hull(corners), [&](std::uint32_t id) {
                         if (id != l && id != j &&
                             std::find(ids.begin(), ids.begin() + n_listed, id) == ids.begin() + n_listed &&
                             can_occlude(w.patches[id], light, r))
@@ -532,9 +547,9 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         const double t_edges = seconds_since(t2);
 
         std::lock_guard lock(accumulate);
-        for (std::size_t j = 0; j < nt; ++j) tri_irradiance[j] += tri[j];
+        for (const std::uint32_t j : near) tri_irradiance[j] += tri[j];
         if (exact && !dm)
-            for (std::size_t v = 0; v < nv; ++v) vert_irradiance[v] += vert[v];
+            for (const std::uint32_t v : near_vertices) vert_irradiance[v] += vert[v];
         for (const auto& [j, seg] : found) segments[j].push_back(seg);
         shadow_stats += ss;
         shadow_receivers += receivers;
@@ -549,6 +564,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         occluders_missed_by_lists += missed;
         ff_sum_total += ff_sum;
         seconds_shoot += t_shoot;
+        seconds_occlusion += shot.seconds_occlusion;
         seconds_shade += t_shade;
         seconds_edges += t_edges;
         ++done;
@@ -606,6 +622,13 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         // of refinement where the exact irradiance at an edge's midpoint departs from the
         // linear interpolation of its ends.
         const auto t_dm = Clock::now();
+        // Lights and receivers finish in any order: sort each triangle's segments so the CDT
+        // sees its constraints in one order (the mesh was nondeterministic by a few triangles)
+        auto lex = [](const ShadowSegment& x, const ShadowSegment& y) {
+            return std::lexicographical_compare(&x.a.x, &x.a.x + 3, &y.a.x, &y.a.x + 3) ||
+                   (x.a == y.a && std::lexicographical_compare(&x.b.x, &x.b.x + 3, &y.b.x, &y.b.x + 3));
+        };
+        for (auto& list : segments) std::sort(list.begin(), list.end(), lex);
         std::size_t constraints = 0;
         for (std::size_t t = 0; t < nt; ++t)
             for (const ShadowSegment& s : segments[t]) {
@@ -645,7 +668,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                         continue;
                     }
                     h[v] = exact_irradiance(w, bvh, lights, mesh.positions[v],
-                                            regions.planar[vertex_region[v]].normal, occ);
+                                            regions.planar[vertex_region[v]].normal, occ, options.reach);
                     fresh[v] = 1;
                 }
             });
@@ -692,7 +715,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                     if (hit != cache.end()) {
                         at_mid = hit->second;
                     } else {
-                        at_mid = exact_irradiance(w, bvh, lights, mid, rn, occ);
+                        at_mid = exact_irradiance(w, bvh, lights, mid, rn, occ, options.reach);
                         evaluated[r].emplace_back(key, at_mid);
                     }
                     const double diff = mean(glm::abs(at_mid - linear));
@@ -788,6 +811,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                          {"dm", dm ? "on" : "off"},
                          {"lights", to_string(options.lights)},
                          {"threads", std::to_string(options.threads)}};
+    if (options.reach > 0.0) result.parameters.emplace_back("reach", std::to_string(options.reach));
     if (options.bounces != 0) {
         if (options.bounces < 0) {
             result.parameters.emplace_back("converge", std::to_string(options.converge));
@@ -814,7 +838,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                          {"mean_form_factor_sum", ff_sum_total / double(lights.size())},
                          {"emitted_power_w", emitted},
                          {"received_power_w", received},
-                         {"seconds_shoot_cpu", seconds_shoot}};
+                         {"seconds_shoot_cpu", seconds_shoot},
+                         {"seconds_occlusion_cpu", seconds_occlusion}};
     if (!dm)
         result.statistics.insert(result.statistics.end(),
                                  {{"occluders_tested", double(occluders_tested)},

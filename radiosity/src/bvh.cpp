@@ -3,7 +3,10 @@
 #include "abrad/radiosity/bvh.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
+
+#include <glm/geometric.hpp>
 
 #include <glm/common.hpp>
 
@@ -19,9 +22,39 @@ void Box::grow(const Box& b) {
     hi = glm::max(hi, b.hi);
 }
 
-bool Box::overlaps(const Box& b) const {
-    return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
-           lo.z <= b.hi.z && b.lo.z <= hi.z;
+Hull::Hull(std::span<const glm::dvec3> points) {
+    for (const glm::dvec3& p : points) m_box.grow(p);
+    const std::size_t n = std::min<std::size_t>(points.size(), 8);
+    const double size = glm::length(m_box.hi - m_box.lo);
+    if (!(size > 0.0)) return;
+    const double eps = 1e-9 * size;
+    // Every plane through three of the points with all the others on one side is a face
+    // plane of the hull (duplicates are harmless); keep up to m_planes.size() of them
+    for (std::size_t a = 0; a < n; ++a)
+        for (std::size_t b = a + 1; b < n; ++b)
+            for (std::size_t c = b + 1; c < n; ++c) {
+                const glm::dvec3 cr = glm::cross(points[b] - points[a], points[c] - points[a]);
+                const double len = glm::length(cr);
+                if (!(len > 1e-12 * size * size)) continue;
+                const glm::dvec3 nrm = cr / len;
+                const double d0 = glm::dot(nrm, points[a]);
+                double lo = 0.0, hi = 0.0;
+                for (std::size_t k = 0; k < n; ++k) {
+                    const double d = glm::dot(nrm, points[k]) - d0;
+                    lo = std::min(lo, d);
+                    hi = std::max(hi, d);
+                }
+                if (lo < -eps && hi > eps) continue;  // points on both sides: no face
+                auto add = [&](const glm::dvec3& nn, double dd) {
+                    // The same face seen through another triple of its points: keep one
+                    for (int i = 0; i < m_count; ++i)
+                        if (glm::dot(m_planes[i].n, nn) > 1.0 - 1e-12 && std::abs(m_planes[i].d - (dd + eps)) <= eps)
+                            return;
+                    if (m_count < static_cast<int>(m_planes.size())) m_planes[m_count++] = {nn, dd + eps};
+                };
+                if (hi <= eps) add(nrm, d0);           // all below: outward normal +nrm
+                if (lo >= -eps) add(-nrm, -d0);        // all above (or flat: both sides)
+            }
 }
 
 Bvh::Bvh(std::span<const Patch> patches) {

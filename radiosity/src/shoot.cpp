@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -381,25 +382,85 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     ShootResult result;
     result.form_factor.assign(patches.size(), 0.0);
 
+    // Patches front to back (nearest corner first), so occlusion culling finds closed pixels
+    const std::size_t count = options.only ? options.only->size() : patches.size();
+    std::vector<std::pair<double, std::uint32_t>> order_fb;
+    order_fb.reserve(count);
+    for (std::size_t k = 0; k < count; ++k) {
+        const std::size_t i = options.only ? (*options.only)[k] : k;
+        if (i == options.exclude || i >= patches.size()) continue;
+        double near = std::numeric_limits<double>::infinity();
+        for (const glm::dvec3& p : patches[i].p) near = std::min(near, glm::length(p - frame.origin));
+        order_fb.emplace_back(near, static_cast<std::uint32_t>(i));
+    }
+    std::sort(order_fb.begin(), order_fb.end());
+
+    // Occlusion culling: per pixel, the union of the coverage masks of opaque fragments and
+    // the deepest of their depths. Once the union is full, a fragment deeper than that depth
+    // gets nothing (PropFF sorts it behind them), so a piece whose nearest depth lies behind
+    // the closed depth of every pixel of its bounding rectangle is not rasterized. Form
+    // factors are unchanged. Only when no occlusion lists are asked for: Algorithm 2 lists
+    // hidden patches behind their occluders too.
+    const bool cull = !options.occlusion;
+    const std::size_t npix = hc.pixel_count();
+    std::vector<Mask<S>> covered(npix);
+    std::vector<float> closed_depth(npix, std::numeric_limits<float>::infinity());
+    std::vector<float> deepest(npix, 0.0f);
+    const Mask<S> full = Mask<S>::full();
+    auto hidden = [&](int face, const Poly2& p, double dmin) {
+        double x0 = p[0].x, x1 = p[0].x, y0 = p[0].y, y1 = p[0].y;
+        for (const auto& v : p) {
+            x0 = std::min(x0, v.x);
+            x1 = std::max(x1, v.x);
+            y0 = std::min(y0, v.y);
+            y1 = std::max(y1, v.y);
+        }
+        const int W = hc.width(face), H = hc.height(face);
+        const int i0 = std::clamp(static_cast<int>(std::floor(x0)), 0, W - 1);
+        const int i1 = std::clamp(static_cast<int>(std::ceil(x1)), i0 + 1, W);
+        const int j0 = std::clamp(static_cast<int>(std::floor(y0)), 0, H - 1);
+        const int j1 = std::clamp(static_cast<int>(std::ceil(y1)), j0 + 1, H);
+        const float d = static_cast<float>(dmin);
+        const std::size_t base = hc.face_offset(face);
+        for (int j = j0; j < j1; ++j)
+            for (int i = i0; i < i1; ++i)
+                if (!(closed_depth[base + static_cast<std::size_t>(j * W + i)] < d)) return false;
+        return true;
+    };
+
     // Scan-convert every patch into fragments
     FragmentBuffer<S> buffer;
-    for (std::size_t i = 0; i < patches.size(); ++i) {
-        if (i == options.exclude) continue;
-        const glm::dvec3 local[3] = {frame.to_local(patches[i].p[0]),
-                                     frame.to_local(patches[i].p[1]),
-                                     frame.to_local(patches[i].p[2])};
-        const auto id = static_cast<std::uint32_t>(i);
+    for (const auto& [near, id] : order_fb) {
+        const glm::dvec3 local[3] = {frame.to_local(patches[id].p[0]),
+                                     frame.to_local(patches[id].p[1]),
+                                     frame.to_local(patches[id].p[2])};
+        const bool opaque = patches[id].opacity >= 1.0;
         project_patch(hc, local, [&](int face, const Poly2& p, const DepthPlane& plane) {
+            if (cull && hidden(face, p, plane.fallback)) {
+                ++result.hidden_pieces;
+                return;
+            }
+            const std::size_t first = buffer.fragments.size();
             if constexpr (S == 1)
                 rasterize_points(hc, face, p, plane, id, buffer);
             else
                 rasterize_abuffer<S>(hc, face, p, plane, id, buffer, result.undersampled_pixels);
+            if (!opaque) return;
+            for (std::size_t f = first; f < buffer.fragments.size(); ++f) {
+                const Fragment<S>& frag = buffer.fragments[f];
+                float& cd = closed_depth[frag.pixel];
+                if (frag.fine != kNoPatch || !std::isinf(cd)) continue;  // no coarse samples, or closed
+                Mask<S>& m = covered[frag.pixel];
+                for (int w = 0; w < Mask<S>::kWords; ++w) m.w[w] |= frag.mask.w[w];
+                deepest[frag.pixel] = std::max(deepest[frag.pixel], frag.depth);
+                // Closed: every sample is behind an opaque fragment no deeper than _deepest_
+                if (std::equal(m.w, m.w + Mask<S>::kWords, full.w)) cd = deepest[frag.pixel];
+            }
         });
     }
     result.fragments = buffer.fragments.size();
 
     // Bucket fragments by pixel (counting sort), then sort each list by depth
-    const std::size_t npix = hc.pixel_count();
     std::vector<std::uint32_t> start(npix + 1, 0);
     for (const auto& f : buffer.fragments) ++start[f.pixel + 1];
     for (std::size_t i = 0; i < npix; ++i) start[i + 1] += start[i];
@@ -411,6 +472,7 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     }
 
     std::vector<std::uint64_t> pairs;
+    std::chrono::steady_clock::duration occlusion_time{};
     std::vector<Mask<S>> masks;
     std::vector<Mask<2 * S>> fine_masks;
     std::vector<std::uint32_t> ids;
@@ -435,7 +497,11 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
         const double delta = hc.delta(px);
         if (!fine) {
             propagate<Mask<S>>(masks, ids, patches, delta, abuffer, result.form_factor, bundles);
-            if (options.occlusion) merge_occlusion<Mask<S>>(masks, ids, patches, pairs);
+            if (options.occlusion && masks.size() > 1) {
+                const auto t0 = std::chrono::steady_clock::now();
+                merge_occlusion<Mask<S>>(masks, ids, patches, pairs);
+                occlusion_time += std::chrono::steady_clock::now() - t0;
+            }
         } else {
             // Undersampled pixel: the whole list at the finer mask resolution
             fine_masks.clear();
@@ -445,12 +511,16 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
             }
             propagate<Mask<2 * S>>(fine_masks, ids, patches, delta, abuffer, result.form_factor,
                                    fine_bundles);
-            if (options.occlusion)
+            if (options.occlusion && fine_masks.size() > 1) {
+                const auto t0 = std::chrono::steady_clock::now();
                 merge_occlusion<Mask<2 * S>>(fine_masks, ids, patches, pairs);
+                occlusion_time += std::chrono::steady_clock::now() - t0;
+            }
         }
     }
 
     // Deduplicate occlusion pairs
+    const auto t_dedup = std::chrono::steady_clock::now();
     result.raw_pairs = pairs.size();
     std::sort(pairs.begin(), pairs.end());
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
@@ -458,6 +528,8 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     for (std::uint64_t key : pairs)
         result.occlusion.push_back({static_cast<std::uint32_t>(key >> 32),
                                     static_cast<std::uint32_t>(key & 0xffffffffu)});
+    occlusion_time += std::chrono::steady_clock::now() - t_dedup;
+    result.seconds_occlusion = std::chrono::duration<double>(occlusion_time).count();
     return result;
 }
 

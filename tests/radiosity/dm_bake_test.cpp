@@ -83,7 +83,10 @@ TEST(DmBake, ConformingOrientedAndAreaPreserved) {
     }
 }
 
-double field_error_of(const visdb::Scene& scene, const BakeOptions& o, std::size_t* triangles = nullptr) {
+// The field error's reference is exact direct light: the bakes are direct light too.
+double field_error_of(const visdb::Scene& scene, const BakeOptions& options, std::size_t* triangles = nullptr) {
+    BakeOptions o = options;
+    o.bounces = 0;
     const visdb::Bake b = bake(scene, o);
     const DirectField field(scene);
     if (triangles) *triangles = b.mesh.triangles.size();

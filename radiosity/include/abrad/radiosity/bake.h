@@ -41,6 +41,10 @@ struct BakeOptions {
     std::vector<ConvergenceSample>* convergence = nullptr;
     Shading shading = Shading::Exact;
     int threads = 0;      ///< 0 = all cores
+    /// Light reach in metres (0 = unlimited): a light shoots, shades and casts shadow edges only
+    /// on triangles whose box meets the cube of this half side around it (cull.h states the
+    /// error bound). Triangles wholly behind a light's plane are always culled (exact).
+    double reach = 0.0;
     /// Discontinuity meshing: receivers re-meshed along the shadow edges (CGAL CDT per
     /// planar region), then refined where the exact irradiance departs from linear.
     bool dm = true;
@@ -63,6 +67,7 @@ using ProgressFn = std::function<void(std::string_view stage, std::size_t done, 
 
 /// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces in [-1, 1000],
 /// converge in (0, 1), element_size > 0, overrelaxation in [1, 2), threads >= 0,
+/// reach >= 0,
 /// dm_min_angle in [0, 20.7], refine_rounds in [0, 20], refine_tolerance > 0,
 /// refine_min_edge > 0); throws BakeError naming the option and value.
 void validate(const BakeOptions& options);

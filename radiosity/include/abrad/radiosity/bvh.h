@@ -2,6 +2,7 @@
 // A bounding-volume hierarchy of axis-aligned boxes over triangles, for conservative
 // "which patches can lie in this region" queries (median split on the longest axis).
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -17,7 +18,42 @@ struct Box {
     glm::dvec3 lo{1e300}, hi{-1e300};
     void grow(const glm::dvec3& p);
     void grow(const Box& b);
-    bool overlaps(const Box& b) const;
+    bool overlaps(const Box& b) const {
+        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y && lo.z <= b.hi.z &&
+               b.lo.z <= hi.z;
+    }
+};
+
+/// The convex hull of a few points (a light triangle and a receiver point or triangle) as a
+/// box and the hull's face planes, for shaft culling (Haines & Wallace 1994): a box outside
+/// one plane cannot meet the hull. Conservative: planes are pushed out by a relative 1e-9.
+class Hull {
+public:
+    /// Up to 8 points; with fewer than 4 affinely independent ones only the box (and, for a
+    /// flat set, its plane's two sides) bound the region.
+    explicit Hull(std::span<const glm::dvec3> points);
+
+    const Box& box() const { return m_box; }
+    /// False when `b` lies entirely outside the hull (outside one of its face planes).
+    bool may_overlap(const Box& b) const {
+        for (int i = 0; i < m_count; ++i) {
+            const Plane& p = m_planes[i];
+            // The box corner furthest against the outward normal
+            const double x = p.n.x >= 0.0 ? b.lo.x : b.hi.x, y = p.n.y >= 0.0 ? b.lo.y : b.hi.y,
+                         z = p.n.z >= 0.0 ? b.lo.z : b.hi.z;
+            if (p.n.x * x + p.n.y * y + p.n.z * z > p.d) return false;
+        }
+        return true;
+    }
+
+private:
+    Box m_box;
+    struct Plane {
+        glm::dvec3 n;
+        double d;  // inside: dot(n, p) <= d
+    };
+    std::array<Plane, 24> m_planes{};
+    int m_count = 0;
 };
 
 /// A static BVH over patches; leaves hold up to 4 patches.
@@ -38,6 +74,28 @@ public:
             if (n.count > 0) {
                 for (std::uint32_t i = 0; i < n.count; ++i)
                     if (m_boxes[m_order[n.first + i]].overlaps(query)) visit(m_order[n.first + i]);
+            } else {
+                stack[top++] = n.first;
+                stack[top++] = n.first + 1;
+            }
+        }
+    }
+
+    /// Calls `visit(patch_index)` for every patch whose box meets `hull` (conservative).
+    template <typename Visit>
+    void query(const Hull& hull, Visit&& visit) const {
+        if (m_nodes.empty()) return;
+        std::uint32_t stack[64];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& n = m_nodes[stack[--top]];
+            if (!n.box.overlaps(hull.box()) || !hull.may_overlap(n.box)) continue;
+            if (n.count > 0) {
+                for (std::uint32_t i = 0; i < n.count; ++i) {
+                    const std::uint32_t id = m_order[n.first + i];
+                    if (m_boxes[id].overlaps(hull.box()) && hull.may_overlap(m_boxes[id])) visit(id);
+                }
             } else {
                 stack[top++] = n.first;
                 stack[top++] = n.first + 1;

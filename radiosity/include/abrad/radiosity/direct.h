@@ -16,15 +16,13 @@
 namespace abrad::radiosity {
 
 /// Calls `visit(id)` for every patch that may lie between `x` and the light triangle
-/// patches[light]: those whose box meets the box of x and the light (conservative; exact
-/// rejection is visible_form_factor's). The light itself is skipped.
+/// patches[light]: those whose box meets the tetrahedron of x and the light (a shaft query:
+/// conservative; exact rejection is visible_form_factor's). The light itself is skipped.
 template <typename Visit>
 void for_each_shadow_candidate(const Bvh& bvh, std::span<const Patch> patches, std::uint32_t light,
                                const glm::dvec3& x, Visit&& visit) {
-    Box region;
-    for (const auto& p : patches[light].p) region.grow(p);
-    region.grow(x);
-    bvh.query(region, [&](std::uint32_t id) {
+    const glm::dvec3 corners[4] = {patches[light].p[0], patches[light].p[1], patches[light].p[2], x};
+    bvh.query(Hull(corners), [&](std::uint32_t id) {
         if (id != light) visit(id);
     });
 }

@@ -34,6 +34,9 @@ struct ShootOptions {
     bool occlusion = true;    ///< also build occlusion lists (Algorithm 2)
     /// Patch index the shooter belongs to (never rasterized), or kNoPatch.
     std::uint32_t exclude = std::numeric_limits<std::uint32_t>::max();
+    /// When set, only these patch indices are rasterized (the rest get form factor 0): the
+    /// patches a light can reach (cull.h). Not owned; must outlive the call.
+    const std::vector<std::uint32_t>* only = nullptr;
 };
 
 inline constexpr std::uint32_t kNoPatch = std::numeric_limits<std::uint32_t>::max();
@@ -55,6 +58,8 @@ struct ShootResult {
     std::size_t fragments = 0;            ///< fragments stored over all pixels
     std::size_t undersampled_pixels = 0;  ///< fragments that needed the finer mask
     std::size_t raw_pairs = 0;            ///< occlusion pairs found before deduplication
+    std::size_t hidden_pieces = 0;        ///< patch pieces culled as hidden behind closed pixels
+    double seconds_occlusion = 0.0;       ///< time spent merging occlusion lists (Algorithm 2)
 
     /// Occluders of `receiver` (a sub-range of `occlusion`).
     std::span<const OcclusionPair> occluders_of(std::uint32_t receiver) const;

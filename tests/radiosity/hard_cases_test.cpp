@@ -1,0 +1,425 @@
+// Hard cases (issue 6), each against an exact or conservation-based expectation: survey
+// coordinates, slivers, coplanar overlaps, a light flush with the ceiling, occluders touching
+// receivers, receivers straddling hemicube faces and in the shooter's plane, tiny far patches,
+// nearly collinear shadow edges, reflectance close to 1; and the per-light culling.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include "abrad/radiosity/bake.h"
+#include "abrad/radiosity/bvh.h"
+#include "abrad/radiosity/cull.h"
+#include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/form_factor.h"
+#include "abrad/radiosity/hemicube.h"
+#include "abrad/radiosity/shoot.h"
+#include "analytic.h"
+#include "scenes.h"
+
+namespace abrad::radiosity {
+namespace {
+
+using abrad::testing::grid;
+using abrad::testing::quad_grid;
+
+constexpr double kGreen = 20.0;  // the light's G emittance, W/m²
+
+// Floor [-1,1]² (8×8 cells) under a 1×1 m light at 1.5 m facing down, E = (10, 20, 5) W/m²,
+// floor ρ = 0.5; materials 0 floor, 1 light, 2 grey (ρ 0.3).
+visdb::Scene base_scene() {
+    visdb::Scene scene;
+    scene.materials.push_back({"floor", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
+    scene.materials.push_back({"light", {0, 0, 0}, {10, kGreen, 5}, 1.0});
+    scene.materials.push_back({"grey", {0.3, 0.3, 0.3}, {0, 0, 0}, 1.0});
+    scene.surfaces.push_back(grid("floor", 0, -1, 1, -1, 1, 0, 8, true));
+    scene.surfaces.push_back(grid("light", 1, -0.5, 0.5, -0.5, 0.5, 1.5, 1, false));
+    return scene;
+}
+
+// Unoccluded form factor from floor point x (normal +z) to the light [-0.5,0.5]² at 1.5 m.
+double ff_light(const glm::dvec3& x) {
+    return testing::ff_parallel_rect(-0.5 - x.x, 0.5 - x.x, -0.5 - x.y, 0.5 - x.y, 1.5);
+}
+
+// Direct light only (the closed forms are for direct light).
+BakeOptions direct() {
+    BakeOptions o;
+    o.bounces = 0;
+    return o;
+}
+
+// No NaN, no Inf, no negative irradiance or radiosity anywhere.
+void expect_sane(const visdb::Bake& b) {
+    ASSERT_EQ(b.mesh.irradiance.size(), b.mesh.positions.size());
+    for (std::size_t v = 0; v < b.mesh.positions.size(); ++v)
+        for (int c = 0; c < 3; ++c) {
+            ASSERT_TRUE(std::isfinite(b.mesh.irradiance[v][c])) << "vertex " << v;
+            ASSERT_TRUE(std::isfinite(b.mesh.radiosity[v][c])) << "vertex " << v;
+            ASSERT_GE(b.mesh.irradiance[v][c], 0.0f) << "vertex " << v;
+            ASSERT_GE(b.mesh.radiosity[v][c], 0.0f) << "vertex " << v;
+        }
+}
+
+double stat(const visdb::Bake& b, const std::string& key) {
+    for (const auto& [k, v] : b.statistics)
+        if (k == key) return v;
+    ADD_FAILURE() << "no statistic " << key;
+    return 0.0;
+}
+
+// Every vertex of `surface` (by index) at floor height satisfies `expected(x)` for G.
+template <typename Expected>
+int check_floor(const visdb::Bake& b, std::uint32_t surface, const glm::dvec3& origin, Expected&& expected,
+                double rel = 1e-6) {
+    int n = 0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        if (b.mesh.triangle_surface[t] != surface) continue;
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = b.mesh.triangles[t][k];
+            const glm::dvec3 x = b.mesh.positions[v] - origin;
+            const double e = expected(x);
+            if (std::isnan(e)) continue;  // not checked there
+            EXPECT_NEAR(b.mesh.irradiance[v].y, e, rel * kGreen + 1e-6) << "at " << x.x << ", " << x.y;
+            ++n;
+        }
+    }
+    return n;
+}
+
+TEST(HardCases, SurveyCoordinatesKeepTheExactField) {
+    // 1e6 m east, 2e6 m north, 300 m up, with millimetre detail: a 1 mm step in the floor
+    const glm::dvec3 offset{1e6, 2e6, 300.0};
+    visdb::Scene scene = base_scene();
+    scene.surfaces.push_back(grid("step", 2, 0.7, 0.701, -0.3, 0.3, 0.001, 1, true));
+    for (auto& s : scene.surfaces)
+        for (auto& p : s.mesh.positions) p += offset;
+    for (bool dm : {false, true}) {
+        BakeOptions o = direct();
+        o.dm = dm;
+        const visdb::Bake b = bake(scene, o);
+        expect_sane(b);
+        // The step (1 mm high) hides part of the light only from floor points within a few mm
+        // of it; elsewhere the floor gets the closed form
+        const int n = check_floor(b, 0, offset, [](const glm::dvec3& x) {
+            return x.x > 0.69 && x.x < 0.72 ? std::nan("") : kGreen * ff_light(x);
+        });
+        EXPECT_GE(n, 8 * 8 * 2 * 3 - 12 * 6);
+        // The step's top (1 mm above the floor) gets the closed form at its own height
+        for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+            const glm::dvec3 x = b.mesh.positions[v] - offset;
+            if (std::abs(x.z - 0.001) < 1e-9 && b.mesh.normals[v].z > 0.5) {
+                const double f = testing::ff_parallel_rect(-0.5 - x.x, 0.5 - x.x, -0.5 - x.y, 0.5 - x.y, 1.499);
+                EXPECT_NEAR(b.mesh.irradiance[v].y, kGreen * f, 1e-6 * kGreen);
+            }
+        }
+    }
+}
+
+TEST(HardCases, SliversAndNearZeroAreaTrianglesGetTheClosedForm) {
+    visdb::Scene scene = base_scene();
+    // A fan over [-1,1]×[1,1.2] from (−1, 1): points along the far edge 1e-7 m apart, and one
+    // 1e-12 m off the line (a near-zero-area sliver), and an exactly zero-area triangle
+    visdb::Surface fan;
+    fan.name = "fan";
+    fan.material = 0;
+    fan.mesh.positions = {{-1, 1, 0}, {1, 1, 0}, {1, 1.2, 0}, {1 - 1e-7, 1.2, 0}, {0.0, 1.2 - 1e-12, 0},
+                          {-1, 1.2, 0}, {0.5, 1.2, 0}};
+    fan.mesh.triangles = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 5}, {0, 3, 6}};
+    // {0,3,6}: (1-1e-7, 1.2) and (0.5, 1.2) are on the far edge: an overlap sliver of the fan
+    fan.mesh.triangles.push_back({0, 6, 6});  // zero area: dropped, counted
+    scene.surfaces.push_back(fan);
+    for (Shading shading : {Shading::Exact, Shading::Patch}) {
+        BakeOptions o = direct();
+        o.dm = false;
+        o.shading = shading;
+        const visdb::Bake b = bake(scene, o);
+        expect_sane(b);
+        EXPECT_EQ(stat(b, "degenerate_skipped"), 1.0);
+        if (shading == Shading::Exact) {
+            const int n = check_floor(b, 2, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); });
+            EXPECT_GE(n, 15);
+        }
+    }
+}
+
+TEST(HardCases, CoplanarOverlappingFacesDoNotShadowEachOther) {
+    visdb::Scene scene = base_scene();
+    // A rug lying exactly on the floor, overlapping it (z-fighting)
+    scene.surfaces.push_back(grid("rug", 2, -0.6, 0.4, -0.3, 0.5, 0.0, 3, true));
+    for (bool dm : {false, true}) {
+        BakeOptions o = direct();
+        o.dm = dm;
+        const visdb::Bake b = bake(scene, o);
+        expect_sane(b);
+        EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); }), 300);
+        EXPECT_GT(check_floor(b, 2, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); }), 50);
+    }
+}
+
+TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
+    // A closed box [-1,1]²×[0,1.5] whose ceiling lies in the light's plane (the light overlaps
+    // it). Every hemicube ray from a light centroid hits a wall or the floor (walls straddle
+    // the top and side faces): the form factors sum to 1 and all emitted power is received.
+    // The ceiling, in the shooter's plane, receives nothing.
+    visdb::Scene scene = base_scene();
+    scene.surfaces.push_back(grid("ceiling", 2, -1, 1, -1, 1, 1.5, 4, false));
+    const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    for (int k = 0; k < 4; ++k)  // walls facing inwards, 5×5 cells: seams cross the face edges
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 2, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
+                                           {0, 0, 1.5}, 5));
+    for (Visibility method : {Visibility::ABuffer, Visibility::ZBuffer}) {
+        BakeOptions o = direct();
+        o.dm = false;
+        o.shading = Shading::Patch;
+        o.method = method;
+        const visdb::Bake b = bake(scene, o);
+        expect_sane(b);
+        EXPECT_NEAR(stat(b, "mean_form_factor_sum"), 1.0, 1e-9);
+        EXPECT_NEAR(stat(b, "received_power_w"), stat(b, "emitted_power_w"), 1e-9 * stat(b, "emitted_power_w"));
+    }
+    BakeOptions exact = direct();  // DM on, exact shading
+    const visdb::Bake b = bake(scene, exact);
+    expect_sane(b);
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        if (b.mesh.triangle_surface[t] != 2) continue;
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_EQ(b.mesh.irradiance[b.mesh.triangles[t][k]].y, 0.0f);
+        }
+    }
+    // Nothing occludes the floor in a convex box: the closed form everywhere but at the four
+    // corners, where two walls meet the floor (see the disabled test below)
+    EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0),
+                          [](const glm::dvec3& x) {
+                              return std::abs(x.x) == 1.0 && std::abs(x.y) == 1.0 ? std::nan("")
+                                                                                   : kGreen * ff_light(x);
+                          }),
+              370);
+}
+
+// Known bug, found by this suite and present on main before the culling work: exact shading at
+// a floor vertex where two walls meet the floor of a closed box gives 1.35-2x the closed form
+// (with and without DM; asymmetric between corners of a symmetric box). Disabled until the
+// exact shading of points lying in occluders' planes is fixed.
+TEST(HardCases, DISABLED_FloorCornersOfAClosedBoxGetTheClosedForm) {
+    visdb::Scene scene = base_scene();
+    const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    for (int k = 0; k < 4; ++k)
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 2, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
+                                           {0, 0, 1.5}, 1));
+    BakeOptions o = direct();
+    o.dm = false;
+    const visdb::Bake b = bake(scene, o);
+    EXPECT_EQ(check_floor(b, 0, glm::dvec3(0.0),
+                          [](const glm::dvec3& x) {
+                              return std::abs(x.x) == 1.0 && std::abs(x.y) == 1.0 ? kGreen * ff_light(x)
+                                                                                   : std::nan("");
+                          }),
+              12);
+}
+
+TEST(HardCases, OccluderTouchingTheReceiver) {
+    // A box 0.4 × 0.4 × 0.3 m standing on the floor. Its shadow from the light reaches at most
+    // 0.2 + 0.7·0.3/1.2 = 0.375 m from the middle; outside it the closed form holds; the
+    // floor under the box gets nothing.
+    visdb::Scene scene = base_scene();
+    const double h = 0.3, s = 0.2;
+    scene.surfaces.push_back(grid("box_top", 2, -s, s, -s, s, h, 2, true));
+    const glm::dvec3 c[4] = {{-s, -s, 0}, {s, -s, 0}, {s, s, 0}, {-s, s, 0}};
+    for (int k = 0; k < 4; ++k)  // sides facing outwards
+        scene.surfaces.push_back(quad_grid("box" + std::to_string(k), 2, c[k], c[(k + 1) % 4] - c[k], {0, 0, h}, 2));
+    for (bool dm : {false, true}) {
+        BakeOptions o = direct();
+        o.dm = dm;
+        const visdb::Bake b = bake(scene, o);
+        expect_sane(b);
+        const int n = check_floor(b, 0, glm::dvec3(0.0), [&](const glm::dvec3& x) {
+            if (std::abs(x.x) < s - 1e-9 && std::abs(x.y) < s - 1e-9) return 0.0;
+            if (std::max(std::abs(x.x), std::abs(x.y)) > 0.376) return kGreen * ff_light(x);
+            return std::nan("");
+        });
+        EXPECT_GT(n, 200);
+    }
+}
+
+TEST(HardCases, TinyPatchesFarFromTheLightAreNotLost) {
+    // Patches 1 cm square 5 m away: far smaller than a pixel at R = 50. The A-buffer's
+    // undersampling mask keeps each one (F > 0) within two coarse samples' delta form factor
+    // of the closed form; the Z-buffer loses those that miss a pixel centre. The sample of
+    // last resort biases such patches up: over 100 of them the A-buffer's total stays within
+    // a factor of 3 of the exact total.
+    std::vector<Patch> patches;
+    std::vector<double> exact;
+    for (int i = 0; i < 10; ++i)
+        for (int j = 0; j < 10; ++j) {
+            const double x = -1.0 + 0.213 * i, y = -1.0 + 0.197 * j;
+            testing::add_quad(patches, {x, y, 5}, {x, y + 0.01, 5}, {x + 0.01, y + 0.01, 5}, {x + 0.01, y, 5});
+        }
+    const Hemicube hc(50);
+    const ShooterFrame frame = ShooterFrame::at({0, 0, 0}, {0, 0, 1});
+    const ShootResult a = shoot(frame, patches, hc, {.method = Visibility::ABuffer, .subpixels = 8, .occlusion = false});
+    const ShootResult z = shoot(frame, patches, hc, {.method = Visibility::ZBuffer, .subpixels = 8, .occlusion = false});
+    double max_delta = 0.0;
+    for (std::size_t p = 0; p < hc.pixel_count(); ++p) max_delta = std::max(max_delta, hc.delta(p));
+    double sum_a = 0.0, sum_exact = 0.0, sum_z = 0.0;
+    int lost_z = 0;
+    for (std::size_t q = 0; q < patches.size(); q += 2) {
+        const double f = point_polygon_form_factor(frame.origin, frame.n, patches[q].p) +
+                         point_polygon_form_factor(frame.origin, frame.n, patches[q + 1].p);
+        const double fa = a.form_factor[q] + a.form_factor[q + 1];
+        EXPECT_GT(fa, 0.0) << "patch " << q / 2 << " lost";
+        EXPECT_LE(std::abs(fa - f), 2.0 * max_delta / 64.0) << "patch " << q / 2;  // two 8x8 samples
+        lost_z += (z.form_factor[q] + z.form_factor[q + 1]) == 0.0;
+        sum_a += fa;
+        sum_z += z.form_factor[q] + z.form_factor[q + 1];
+        sum_exact += f;
+    }
+    EXPECT_GT(sum_a, sum_exact / 3.0);
+    EXPECT_LT(sum_a, 3.0 * sum_exact);
+    std::printf("tiny patches: A-buffer sum / exact = %.3f, Z-buffer sum / exact = %.3f\n", sum_a / sum_exact,
+                sum_z / sum_exact);
+    EXPECT_GT(lost_z, 50);  // the point-sampled item buffer misses most of them
+    EXPECT_GT(a.undersampled_pixels, 50u);
+}
+
+TEST(HardCases, ManyNearlyCollinearShadowEdges) {
+    // Thirty stacked slats 1 µm apart in height and in y, each turned by a further 0.125 µrad:
+    // their long edges, and so their shadow edges on the floor, are nearly collinear. The discontinuity mesh must keep the
+    // floor's area, and every vertex must carry the exact irradiance (DirectField).
+    visdb::Scene scene = base_scene();
+    for (int k = 0; k < 30; ++k) {
+        scene.surfaces.push_back(quad_grid("slat" + std::to_string(k), 2, {-0.4, 1e-6 * k, 0.75 + 1e-6 * k},
+                                           {0.8, 1e-7 * k, 0}, {0, 0.05, 0}, 1));
+    }
+    BakeOptions o = direct();
+    o.lights = LightModel::Area;
+    o.refine_rounds = 1;
+    const visdb::Bake b = bake(scene, o);
+    expect_sane(b);
+    double floor_area = 0.0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
+        if (b.mesh.triangle_surface[t] == 0) {
+            const auto& tri = b.mesh.triangles[t];
+            floor_area += 0.5 * glm::length(glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
+                                                       b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
+        }
+    EXPECT_NEAR(floor_area, 4.0, 1e-9);
+    EXPECT_GT(stat(b, "triangles"), stat(b, "dm_triangles_before"));
+    const DirectField field(scene);
+    int n = 0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
+        if (b.mesh.triangle_surface[t] == 0)
+            for (int k = 0; k < 3; ++k, ++n) {
+                const auto v = b.mesh.triangles[t][k];
+                const double e = field.irradiance(b.mesh.positions[v], {0, 0, 1}).y;
+                ASSERT_NEAR(b.mesh.irradiance[v].y, e, 1e-5 * kGreen) << "vertex " << v;
+            }
+    EXPECT_GT(n, 300);
+}
+
+TEST(HardCases, ReflectanceCloseToOneKeepsRadiosityBounded) {
+    // Direct light: B = E + ρH exactly, and the power reflected never exceeds the power received
+    visdb::Scene scene = base_scene();
+    scene.materials[0].reflectance = {0.999, 0.999999, 0.99};
+    BakeOptions o = direct();
+    o.dm = false;
+    const visdb::Bake b = bake(scene, o);
+    expect_sane(b);
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
+        if (b.mesh.triangle_surface[t] == 0)
+            for (int k = 0; k < 3; ++k) {
+                const auto v = b.mesh.triangles[t][k];
+                EXPECT_NEAR(b.mesh.radiosity[v].y, 0.999999 * b.mesh.irradiance[v].y, 1e-6);
+                EXPECT_LE(b.mesh.radiosity[v].y, b.mesh.irradiance[v].y);
+            }
+}
+
+TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
+    // Interreflection in a closed box whose every surface reflects 99%: the solution converges,
+    // emitted = absorbed + escaped + unshot, nothing escapes a closed box, and no value is NaN,
+    // negative or larger than the enclosure bound E·A_L/(A_box·(1 − ρ)) allows on average.
+    visdb::Scene scene = base_scene();
+    scene.surfaces.push_back(grid("ceiling", 0, -1, 1, -1, 1, 1.5, 4, false));
+    const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    for (int k = 0; k < 4; ++k)
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 0, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
+                                           {0, 0, 1.5}, 4));
+    scene.materials[0].reflectance = {0.99, 0.99, 0.99};
+    BakeOptions o;  // interreflection until converged (the default)
+    o.dm = false;
+    const visdb::Bake b = bake(scene, o);
+    expect_sane(b);
+    const double emitted = stat(b, "energy_emitted_w");
+    EXPECT_GT(emitted, 0.0);
+    EXPECT_NEAR(stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"), emitted,
+                1e-6 * emitted);
+    EXPECT_LT(stat(b, "energy_escaped_w"), 1e-3 * emitted);
+    // Mean radiosity over the box's inner area (4 + 4 + 4·3 m² = 20 m², light excluded): at
+    // most the enclosure value (ΣE·A_L)/(A·(1 − ρ)) for the green channel
+    double sum = 0.0, area = 0.0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        if (b.mesh.triangle_surface[t] == 1) continue;
+        const auto& tri = b.mesh.triangles[t];
+        const double a = 0.5 * glm::length(glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
+                                                      b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
+        sum += a * (b.mesh.radiosity[tri.x].y + b.mesh.radiosity[tri.y].y + b.mesh.radiosity[tri.z].y) / 3.0;
+        area += a;
+    }
+    EXPECT_NEAR(area, 20.0, 1e-9);
+    EXPECT_LT(sum / area, 1.05 * kGreen * 1.0 / (20.0 * (1.0 - 0.99)));
+    EXPECT_GT(sum / area, 0.0);
+}
+
+// ---------------------------------------------------------------------------------------
+// Culling
+
+TEST(Cull, CandidatesAreThePatchesInFrontWithinReach) {
+    std::vector<Patch> patches;
+    const Patch light{{{-0.5, -0.5, 1.5}, {-0.5, 0.5, 1.5}, {0.5, 0.5, 1.5}}, 1.0};  // faces down
+    patches.push_back(light);
+    testing::add_quad(patches, {-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0});      // 1, 2: below
+    testing::add_quad(patches, {-1, -1, 2}, {1, -1, 2}, {1, 1, 2}, {-1, 1, 2});      // 3, 4: above
+    testing::add_quad(patches, {-1, -1, 1.5}, {1, -1, 1.5}, {1, 1, 1.5}, {-1, 1, 1.5});  // 5, 6: in plane
+    testing::add_quad(patches, {-1, -1, 1}, {1, -1, 1}, {1, -1, 2}, {-1, -1, 2});    // 7, 8: straddling
+    testing::add_quad(patches, {50, 0, 0}, {51, 0, 0}, {51, 1, 0}, {50, 1, 0});      // 9, 10: far below
+    const Bvh bvh(patches);
+    EXPECT_EQ(light_candidates(bvh, patches, 0, 0.0), (std::vector<std::uint32_t>{1, 2, 7, 8, 9, 10}));
+    EXPECT_EQ(light_candidates(bvh, patches, 0, 10.0), (std::vector<std::uint32_t>{1, 2, 7, 8}));
+}
+
+TEST(Cull, ReachDropsOnlyWhatLiesBeyondItWithinTheStatedBound) {
+    // Two rooms' worth of floor and lights 30 m apart in the open: with a reach of 10 m each
+    // floor gets only its own light; the difference from the full bake is the far light's
+    // contribution, below E·A/(π (reach − r)²)
+    visdb::Scene scene = base_scene();
+    visdb::Surface floor2 = grid("floor2", 0, 29, 31, -1, 1, 0, 4, true);
+    visdb::Surface light2 = grid("light2", 1, 29.5, 30.5, -0.5, 0.5, 1.5, 1, false);
+    scene.surfaces.push_back(floor2);
+    scene.surfaces.push_back(light2);
+    BakeOptions full = direct();
+    full.dm = false;
+    BakeOptions near = full;
+    near.reach = 10.0;
+    const visdb::Bake a = bake(scene, full), b = bake(scene, near);
+    expect_sane(b);
+    ASSERT_EQ(a.mesh.positions.size(), b.mesh.positions.size());
+    const double bound = kGreen * 1.0 / (std::numbers::pi * (10.0 - std::sqrt(0.5)) * (10.0 - std::sqrt(0.5)));
+    double max_diff = 0.0;
+    for (std::size_t v = 0; v < a.mesh.positions.size(); ++v) {
+        const double d = a.mesh.irradiance[v].y - b.mesh.irradiance[v].y;
+        EXPECT_GE(d, -1e-9);
+        EXPECT_LE(d, bound);
+        max_diff = std::max(max_diff, d);
+    }
+    EXPECT_GT(max_diff, 0.0);  // the far light did reach, a little
+    // Within the first room, the near light's part is the closed form
+    EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); }), 380);
+}
+
+}  // namespace
+}  // namespace abrad::radiosity

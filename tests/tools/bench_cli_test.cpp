@@ -1,0 +1,96 @@
+// abrad generate and abrad bench from the command line: outputs, values, and bad input (exit 2).
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Outcome {
+    int status;
+    std::string output;
+};
+
+Outcome abrad(const std::string& args) {
+    const std::string cmd = std::string(ABRAD_EXE) + " " + args + " 2>&1";
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return {-1, "popen failed"};
+    std::string out;
+    char buf[4096];
+    std::size_t n;
+    while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
+    const int st = pclose(pipe);
+    return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+class BenchCli : public ::testing::Test {
+protected:
+    void SetUp() override {
+        m_dir = fs::temp_directory_path() / ("abrad_bench_cli_" + std::to_string(getpid()) + "_" +
+                                             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        fs::remove_all(m_dir);
+        fs::create_directories(m_dir);
+    }
+    void TearDown() override {
+        if (!HasFailure()) fs::remove_all(m_dir);
+    }
+    std::string path(const std::string& name) const { return (m_dir / name).string(); }
+    fs::path m_dir;
+};
+
+TEST_F(BenchCli, GenerateWritesAFloorThatBakes) {
+    const std::string db = path("floor.visdb");
+    const Outcome g = abrad("generate --db " + db + " --rooms 2 1 --cell 1 --furniture 1 --lights 2");
+    ASSERT_EQ(g.status, 0) << g.output;
+    const Outcome info = abrad("info --db " + db);
+    ASSERT_EQ(info.status, 0) << info.output;
+    // Two rooms, two 0.6 m panels each: 8 light triangles, 1.44 m², 144 W at 100 W/m²
+    EXPECT_NE(info.output.find("lights: 8 triangles, 1.44 m2, 144 W"), std::string::npos) << info.output;
+    const Outcome b = abrad("bake --db " + db + " --dm off --bounces 0 --reach 6");
+    ASSERT_EQ(b.status, 0) << b.output;
+    EXPECT_NE(b.output.find("8 light triangles"), std::string::npos) << b.output;
+}
+
+TEST_F(BenchCli, BadInputExitsTwo) {
+    EXPECT_EQ(abrad("generate --db " + path("a.visdb") + " --rooms 0 1").status, 2);
+    EXPECT_EQ(abrad("generate --db " + path("a.visdb") + " --cell -1").status, 2);
+    EXPECT_EQ(abrad("generate --db " + path("a.visdb") + " --lights 17").status, 2);
+    EXPECT_FALSE(fs::exists(path("a.visdb")));
+    const Outcome s = abrad("bench --out " + path("b") + " --sizes 3q");
+    EXPECT_EQ(s.status, 2);
+    EXPECT_NE(s.output.find("--sizes"), std::string::npos) << s.output;
+    EXPECT_EQ(abrad("bench --out " + path("b") + " --subdivisions 0").status, 2);
+    EXPECT_EQ(abrad("bench --out " + path("b") + " --no-room").status, 2);
+    EXPECT_EQ(abrad("bench --out " + path("b") + " --quick --reach -1").status, 2);
+    EXPECT_EQ(abrad("bake --db " + path("a.visdb") + " --reach -2").status, 2);
+}
+
+TEST_F(BenchCli, QuickBenchWritesCsvSummaryAndPlots) {
+    const std::string out = path("bench");
+    const Outcome r = abrad("bench --out " + out + " --quick --no-room --sizes 600 --light-counts 1,2 --lights-at 600 "
+                            "--dm off --bounces 0 --subdivisions 1");
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::ifstream csv(out + "/scaling.csv");
+    std::string line;
+    int rows = 0;
+    while (std::getline(csv, line)) ++rows;
+    EXPECT_EQ(rows, 1 + 3);  // header, one size, two light counts
+    std::stringstream md;
+    md << std::ifstream(out + "/summary.md").rdbuf();
+    EXPECT_NE(md.str().find("## Scaling with light triangles"), std::string::npos);
+    // The PNG through gnuplot, or a notice saying it was not made
+    if (!fs::exists(out + "/scaling.png")) {
+        EXPECT_NE(r.output.find("gnuplot"), std::string::npos) << r.output;
+    }
+    EXPECT_TRUE(fs::exists(out + "/scaling.gp"));
+}
+
+}  // namespace
