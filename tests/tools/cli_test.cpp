@@ -601,3 +601,55 @@ TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
     EXPECT_NEAR(e.y, 12.0 * f, 1e-6 * e.y);
     EXPECT_NEAR(e.z, 4.0 * f, 1e-6 * e.z);
 }
+
+// Images and scenes for other renderers: pov, pov-reference and glTF exports, abrad render in
+// PNG/EXR and false colour, and compare's metrics and exit statuses.
+TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
+    const std::string db = baked_db();
+    const fs::path pov = path("baked.pov"), ref = path("reference.pov"), glb = path("bake.glb");
+    Result r = run("export --db " + db + " --format pov --output " + pov.string() + " --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("camera 'default'"), std::string::npos) << r.output;
+    const std::string pov_text = bytes(pov);
+    EXPECT_NE(pov_text.find("mesh2 {"), std::string::npos);
+    EXPECT_NE(pov_text.find("texture_list"), std::string::npos);
+    EXPECT_EQ(pov_text.find("light_source"), std::string::npos);
+    r = run("export --db " + db + " --format pov-reference --light-samples 16 --output " + ref.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(bytes(ref).find("spotlight"), std::string::npos);
+    r = run("export --db " + db + " --format gltf --output " + glb.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_EQ(bytes(glb).substr(0, 4), "glTF");
+    EXPECT_NE(bytes(glb).find("KHR_materials_unlit"), std::string::npos);
+
+    // Own renders: PNG, EXR, false colour with a legend (wider than the image)
+    const std::string png = path("own.png").string(), dark = path("dark.png").string();
+    r = run("render --db " + db + " --output " + png + " --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = run("render --db " + db + " --output " + dark + " --width 160 --height 120 --exposure 0.001");
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = run("render --db " + db + " --output " + path("own.exr").string() + " --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = run("render --db " + db + " --output " + path("fc.png").string() + " --false-colour --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("false-colour irradiance, 0 .. "), std::string::npos) << r.output;
+
+    // compare: the same image passes, a darker one fails its threshold (exit 1)
+    r = run("compare " + png + " " + png + " --min-psnr 60");
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("rmse: 0\n"), std::string::npos) << r.output;
+    r = run("compare " + png + " " + dark + " --min-psnr 20 --side-by-side " + path("sbs.png").string());
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("result: fail"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("dB < 20 dB"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(path("sbs.png")));
+    // Bad input: a missing image, different sizes, an unknown camera (exit 2, named)
+    r = run("compare " + png + " " + path("nope.png").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("nope.png"), std::string::npos) << r.output;
+    r = run("compare " + png + " " + path("fc.png").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    r = run("render --db " + db + " --output " + png + " --camera attic");
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("abrad render: no camera 'attic'"), std::string::npos) << r.output;
+}
