@@ -458,8 +458,8 @@ void render_image(const std::string& db, const std::string& bake_name, const std
         for (std::size_t i = 0; i < values.size(); ++i) {
             const glm::vec3& h = r.value[i];
             const double y = 0.2126 * h.r + 0.7152 * h.g + 0.0722 * h.b;
-            values[i] = r.covered[i] ? y : std::nan("");
-            if (r.covered[i] && std::isfinite(y)) hi = std::max(hi, y);
+            values[i] = r.covered[i] == 1 ? y : std::nan("");  // backs of faces: no data
+            if (r.covered[i] == 1 && std::isfinite(y)) hi = std::max(hi, y);
         }
         const double lo_v = vmin.value_or(0.0), hi_v = vmax.value_or(hi > lo_v ? hi : lo_v + 1.0);
         if (!(hi_v > lo_v)) bad_input("--vmax (" + std::to_string(hi_v) + ") must exceed --vmin (" + std::to_string(lo_v) + ")");
@@ -490,6 +490,7 @@ struct CompareArgs {
     std::string side_by_side;
     double diff_gain = 4.0;
     std::optional<double> max_rmse, min_psnr, max_error;
+    std::optional<double> clip;
 };
 
 // `abrad compare`: metrics in linear light, a difference image, exit 1 past a threshold.
@@ -504,6 +505,12 @@ int compare_images(const CompareArgs& c) {
     if (a.width != b.width || a.height != b.height)
         bad_input(c.b + ": image is " + std::to_string(b.width) + "x" + std::to_string(b.height) + ", " +
                   c.a + " is " + std::to_string(a.width) + "x" + std::to_string(a.height));
+    if (c.clip) {
+        // Emitters are tens of times brighter than what they light: clipped, their edge pixels
+        // no longer swamp the metrics of the lit scene
+        for (auto* img : {&a, &b})
+            for (float& v : img->rgb) v = std::clamp(v, 0.0f, static_cast<float>(*c.clip));
+    }
     const exporter::ImageDifference d = exporter::compare_images(a, b);
     std::printf("a: %s\nb: %s\nsize: %dx%d\nrmse: %.6g\npsnr_db: %.4g\nmax_error: %.6g\n"
                 "max_error_pixel: %d,%d\nmean_a: %.6g\nmean_b: %.6g\n",
@@ -755,6 +762,9 @@ int run_cli(int argc, char** argv) {
                             "Write A | B | gain x |A - B| here, tone-mapped for a person (PNG)");
     compare_cmd->add_option("--diff-gain", compare_args.diff_gain, "Gain of the difference images")
         ->capture_default_str()->check(CLI::PositiveNumber);
+    compare_cmd->add_option("--clip", compare_args.clip, "Clamp both images' linear values to [0, "
+                                                         "CLIP] first (e.g. 4: emitters stop dominating)")
+        ->check(CLI::PositiveNumber);
     compare_cmd->add_option("--max-rmse", compare_args.max_rmse, "Fail (exit 1) when the RMSE is larger");
     compare_cmd->add_option("--min-psnr", compare_args.min_psnr, "Fail (exit 1) when the PSNR (dB, peak 1) is lower");
     compare_cmd->add_option("--max-error", compare_args.max_error, "Fail (exit 1) when a channel differs by more");

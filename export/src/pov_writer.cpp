@@ -104,6 +104,8 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
     }
     out += "global_settings { assumed_gamma 1.0 ambient_light 0 max_trace_level 1 }\n";
     out += "#declare Abrad_Finish = finish { ambient 0 diffuse 0 emission Abrad_Exposure }\n";
+    // A bake shades the front of each face only: backs are black, as in abrad render
+    out += "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 } }\n";
     const glm::dvec3 origin = local_origin(mesh.positions);
 
     // Group the triangles by surface: one mesh2 per surface
@@ -151,12 +153,14 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
         out += " }\n  face_indices { " + std::to_string(end - begin);
         for (std::size_t k = begin; k < end; ++k) {
             const auto& t = mesh.triangles[order[k]];
-            const std::string a = std::to_string(local[t.x]), b = std::to_string(local[t.y]),
-                              c = std::to_string(local[t.z]);
+            // POV-Ray's front is the left-handed one: write b and c swapped so the bake's front
+            // gets the texture_list and its back the black interior_texture
+            const std::string a = std::to_string(local[t.x]), b = std::to_string(local[t.z]),
+                              c = std::to_string(local[t.y]);
             out += ",\n    <" + a + "," + b + "," + c + ">," + a + "," + b + "," + c;
             file.write_if_full(out);
         }
-        out += " }\n  translate ";
+        out += " }\n  texture { Abrad_Back }\n  interior_texture { Abrad_Back }\n  translate ";
         append_vector(out, origin);
         out += "\n}\n";
         for (const std::uint32_t v : used) local[v] = -1;

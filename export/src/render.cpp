@@ -17,15 +17,18 @@ namespace abrad::exporter {
 
 namespace {
 
-// Distance along +z from `origin` to the nearest triangle of `scene` above it (Möller–Trumbore
-// with the ray fixed to +z), or infinity.
+// Distance along +z from `origin` to the nearest ceiling above it: a non-emitting triangle whose
+// front faces down (Möller–Trumbore with the ray fixed to +z), or infinity. Luminaires and
+// objects facing up (a table top seen from under it) are not ceilings.
 double distance_above(const visdb::Scene& scene, const glm::dvec3& origin) {
     double best = std::numeric_limits<double>::infinity();
     const glm::dvec3 dir(0.0, 0.0, 1.0);
     for (const auto& s : scene.surfaces) {
+        if (s.material < scene.materials.size() && scene.materials[s.material].is_emitter()) continue;
         for (const auto& t : s.mesh.triangles) {
             const glm::dvec3& a = s.mesh.positions[t.x];
             const glm::dvec3 e1 = s.mesh.positions[t.y] - a, e2 = s.mesh.positions[t.z] - a;
+            if (glm::cross(e1, e2).z >= 0.0) continue;  // faces up or sideways
             const glm::dvec3 p = glm::cross(dir, e2);
             const double det = glm::dot(e1, p);
             if (std::abs(det) < 1e-14) continue;
@@ -188,6 +191,9 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
                                                                       std::isfinite(v.y) ? v.y : 0.0f,
                                                                       std::isfinite(v.z) ? v.z : 0.0f)});
         }
+        // A bake shades the front of each face only: its back shows black
+        const glm::dvec3& p0 = mesh.positions[tri.x];
+        const bool back = glm::dot(glm::cross(mesh.positions[tri.y] - p0, mesh.positions[tri.z] - p0), f.eye - p0) < 0.0;
         // Clip the triangle at the near plane (Sutherland–Hodgman against forward >= near)
         clipped.clear();
         for (std::size_t k = 0; k < poly.size(); ++k) {
@@ -235,8 +241,8 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
                     if (!(z < depth[o])) continue;
                     depth[o] = z;
                     const glm::dvec3 val = (w0 * v[0]->v + w1 * v[1]->v + w2 * v[2]->v) * z;
-                    r.value[o] = glm::vec3(val);
-                    r.covered[o] = 1;
+                    r.value[o] = back ? glm::vec3(0.0f) : glm::vec3(val);
+                    r.covered[o] = back ? 2 : 1;
                 }
             }
         }

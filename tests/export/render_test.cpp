@@ -138,6 +138,17 @@ TEST(Render, InterpolatesPerspectiveCorrectlyAndClipsAtTheNearPlane) {
     EXPECT_FLOAT_EQ(ri.value[static_cast<std::size_t>(h / 2 * w + w / 2)].r, 200.0f);
 }
 
+TEST(Render, BacksOfFacesAreBlack) {
+    visdb::BakeMesh m;
+    // The wall of floor_and_wall() wound the other way: the camera sees its back
+    add_quad(m, 0, {-1, 5, -1}, {-1, 5, 0.5}, {1, 5, 0.5}, {1, 5, -1}, [](const glm::dvec3&) { return glm::vec3(100.0f); });
+    const Raster r = render_bake(m, looking_along_y(), {.width = 32, .height = 24});
+    const std::size_t centre = 12 * 32 + 16;
+    EXPECT_EQ(r.covered[centre], 2);
+    EXPECT_EQ(r.value[centre], glm::vec3(0.0f));
+    EXPECT_EQ(r.covered[0], 0);
+}
+
 TEST(Render, RejectsDegenerateCamerasAndBadMeshes) {
     visdb::Camera c = looking_along_y();
     c.look_at = c.position;
@@ -180,13 +191,13 @@ TEST(Camera, DefaultIsInsideTheLargestRoomLookingAtItsCentre) {
     const visdb::Camera c = default_camera(box_room());
     EXPECT_EQ(c.name, "default");
     // 75 % of the way from the floor's centroid (3, 2) to its corner (0, 0), 1.6 m up; the
-    // light's underside 2.99 m above the centroid is what the ceiling probe meets
+    // ceiling probe passes the light (an emitter, not a ceiling) and meets the ceiling
     EXPECT_NEAR(c.position.x, 0.75, 1e-9);
     EXPECT_NEAR(c.position.y, 0.5, 1e-9);
     EXPECT_NEAR(c.position.z, 1.6, 1e-9);
     EXPECT_NEAR(c.look_at.x, 3.0, 1e-9);
     EXPECT_NEAR(c.look_at.y, 2.0, 1e-9);
-    EXPECT_NEAR(c.look_at.z, 0.35 * (2.99 - 1e-4), 1e-9);  // probed from 0.1 mm above the floor
+    EXPECT_NEAR(c.look_at.z, 0.35 * (3.0 - 1e-4), 1e-9);  // probed from 0.1 mm above the floor
 }
 
 TEST(Camera, OpenModelsAreSeenFromOutside) {
@@ -245,7 +256,8 @@ TEST(PovExport, WritesOneMesh2PerSurfaceWithExactVertexColours) {
     EXPECT_NE(text.find("emission Abrad_Exposure"), std::string::npos);
     EXPECT_NE(text.find("// surface 1 'wall'"), std::string::npos);
     EXPECT_NE(text.find("texture{pigment{rgb<100,100,100>}finish{Abrad_Finish}}"), std::string::npos);
-    EXPECT_NE(text.find("<0,1,2>,0,1,2"), std::string::npos);
+    EXPECT_NE(text.find("<0,2,1>,0,2,1"), std::string::npos);  // POV-Ray's front is left-handed
+    EXPECT_NE(text.find("interior_texture { Abrad_Back }"), std::string::npos);
     EXPECT_FALSE(fs::exists(dir / "scene.pov.tmp"));
 }
 

@@ -26,8 +26,9 @@ public:
 visdb::Camera select_camera(const visdb::Scene& scene, std::string_view name);
 
 /// A camera inside the largest room looking at its centre: the largest upward-facing
-/// non-emitting surface with something above it (the floor of a room; its ceiling height h is
-/// the distance to what is above its area centroid) gets the eye 75 % of the way from its
+/// non-emitting surface with a ceiling above it (the floor of a room; its ceiling height h is
+/// the distance from its area centroid up to the first non-emitting face whose front faces
+/// down) gets the eye 75 % of the way from its
 /// centroid toward its bounding-box corner (min x, min y), min(1.6 m, 0.6 h) above the floor,
 /// looking at the centroid 0.35 h above the floor, fov 70°. A scene without such a floor is
 /// seen from outside: from the (-x, -y, +z) side of its bounding box, far enough to hold it.
@@ -66,16 +67,17 @@ struct RenderOptions {
 };
 
 /// A rendered buffer: per pixel the interpolated linear value (not exposed or tone mapped)
-/// and whether any triangle covers it (uncovered pixels hold 0).
+/// and what covers it: 0 nothing, 1 the front of a face, 2 the back of a face (a bake shades
+/// fronts only, so backs hold 0, as uncovered pixels do).
 struct Raster {
     int width = 0;
     int height = 0;
     std::vector<glm::vec3> value;      ///< row-major, top row first
-    std::vector<std::uint8_t> covered;  ///< 1 where a triangle was hit
+    std::vector<std::uint8_t> covered;  ///< 0 nothing, 1 front face, 2 back face
 };
 
-/// Rasterizes `mesh` through `camera`: both faces of every triangle are drawn, the nearest
-/// wins (Z-buffer on view depth), values are interpolated perspective-correctly between the
+/// Rasterizes `mesh` through `camera`: both faces of every triangle are drawn (backs black),
+/// the nearest wins (Z-buffer on view depth), values are interpolated perspective-correctly between the
 /// triangle's vertices, pixels sampled at their centres (no antialiasing). Triangles are
 /// clipped at `options.near`. Throws ExportError on an inconsistent mesh, CameraError on a
 /// degenerate camera, std::invalid_argument on a non-positive size.

@@ -73,7 +73,9 @@ struct PovView {
 /// origin near the mesh's centre, written as the shortest text that reads back as the same
 /// float, plus a `translate`), a `texture_list` with each vertex's radiosity B as pigment and
 /// `finish { ambient 0 diffuse 0 emission Abrad_Exposure }`, so POV-Ray shows the bake
-/// Gouraud-interpolated and unlit; `camera` from `view`, no lights, black background.
+/// Gouraud-interpolated and unlit, on the front of each face (the bake shades fronts only:
+/// backs get a black `interior_texture`, the winding written reversed because POV-Ray's front
+/// is left-handed); `camera` from `view`, no lights, black background.
 /// `Abrad_Exposure` is declared only when not already defined (override it with
 /// `Declare=Abrad_Exposure=1` on the povray command line for absolute values). Render to
 /// OpenEXR (`+FE`) for linear values; a PNG clips them at 1. Throws ExportError naming `path`
