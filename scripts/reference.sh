@@ -23,6 +23,7 @@
 #                               refinement so that Gouraud interpolation error stays small:
 #                               --refine-tolerance 0.01 --refine-rounds 8 --refine-min-edge 0.01)
 #     --no-reference            skip the POV-Ray reference (FZK-Haus smoke test)
+#   dxf_plan and fzk_haus read ../shared/data (or $ABRAD_SHARED_DATA).
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -55,7 +56,7 @@ done
 ((${#args[@]} == 2)) || usage
 sample=${args[0]}
 out=${args[1]}
-shared="$here/../shared/data"
+shared="${ABRAD_SHARED_DATA:-$here/../shared/data}"
 
 # Each sample: its model, import options, bake options and the baked-vs-reference threshold
 # (dB; see README "Reference comparisons" for what the remaining difference is).
