@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # One sample's reference comparison, in one command: imports and bakes the sample (direct
-# light, --bounces 0), renders the bake three ways and compares them in linear light:
+# light, --bounces 0, unless --bounces says otherwise), renders the bake three ways and compares them in linear light:
 #
 #   own.exr        abrad render (abrad's Gouraud rasterizer)
 #   baked_pov.exr  POV-Ray rendering `abrad export --format pov` (the same bake, unlit)
@@ -22,6 +22,9 @@
 #     --bake-options "OPTS"     bake options after --bounces 0 (default: the sample's, a fine
 #                               refinement so that Gouraud interpolation error stays small:
 #                               --refine-tolerance 0.01 --refine-rounds 8 --refine-min-edge 0.01)
+#     --bounces N               bake with --bounces N and let POV-Ray's radiosity do N bounces
+#                               in the reference (default 0: direct light against direct light)
+#     --quality Q               POV-Ray radiosity quality when N > 0: low, medium, high
 #     --no-reference            skip the POV-Ray reference (FZK-Haus smoke test)
 #   dxf_plan and fzk_haus read ../shared/data (or $ABRAD_SHARED_DATA).
 set -euo pipefail
@@ -35,6 +38,8 @@ min_psnr_own=55
 min_psnr_reference=""
 reference=1
 bake_extra=""
+bounces=0
+quality=medium
 bake_extra_given=0
 usage() { sed -n '2,25p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 args=()
@@ -47,6 +52,8 @@ while (($#)); do
         --min-psnr-own) min_psnr_own=$2; shift 2 ;;
         --min-psnr-reference) min_psnr_reference=$2; shift 2 ;;
         --bake-options) bake_extra=$2; bake_extra_given=1; shift 2 ;;
+        --bounces) bounces=$2; shift 2 ;;
+        --quality) quality=$2; shift 2 ;;
         --no-reference) reference=0; shift ;;
         -h|--help) usage ;;
         -*) echo "reference.sh: unknown option $1" >&2; usage ;;
@@ -60,7 +67,7 @@ shared="${ABRAD_SHARED_DATA:-$here/../shared/data}"
 
 # Each sample: its model, import options, bake options and the baked-vs-reference threshold
 # (dB; see README "Reference comparisons" for what the remaining difference is).
-bake_opts=(--bounces 0)
+bake_opts=(--bounces "$bounces")
 fine=(--refine-tolerance 0.01 --refine-rounds 8 --refine-min-edge 0.01)
 case "$sample" in
     paper_simple)   models=("$here/samples/paper_simple/paper_occluder.obj"); import_opts=(); psnr_ref=40
@@ -78,7 +85,7 @@ esac
 [[ -n "$min_psnr_reference" ]] || min_psnr_reference=$psnr_ref
 if ((bake_extra_given)); then
     read -r -a extra <<<"$bake_extra"
-    bake_opts=(--bounces 0 "${extra[@]}")
+    bake_opts=(--bounces "$bounces" "${extra[@]}")
 fi
 command -v povray >/dev/null || { echo "reference.sh: povray is not installed (scripts/install-deps.sh)" >&2; exit 1; }
 [[ -x "$abrad" ]] || { echo "reference.sh: $abrad: no abrad binary (--abrad PATH)" >&2; exit 2; }
@@ -134,10 +141,10 @@ compare() {  # compare A B NAME MIN_PSNR
 } >"$out/summary.txt"
 if ((reference)); then
     step export-reference "$abrad" export --db "$db" --format pov-reference --output "$out/reference.pov" \
-        --light-samples "$light_samples" "${view[@]}"
+        --light-samples "$light_samples" --reference-bounces "$bounces" --quality "$quality" "${view[@]}"
     t=$(now); step povray-reference povray_render reference.pov reference.exr; t_ref=$(elapsed "$t")
     {
-        echo "times: povray reference ${t_ref} s (${light_samples} light samples)"
+        echo "times: povray reference ${t_ref} s (${light_samples} light samples, ${bounces} POV-Ray radiosity bounces)"
         compare baked_pov.exr reference.exr baked_vs_reference "$min_psnr_reference"
     } >>"$out/summary.txt"
 fi

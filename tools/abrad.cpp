@@ -792,7 +792,7 @@ int run_cli(int argc, char** argv) {
     std::string out_dir;
     auto* run_cmd = app.add_subcommand("run", "Import, bake and export in one go");
     run_cmd->add_option("MODEL", import_args.models, "Model files: obj, gltf, glb, 3ds, dae, fbx, dxf, ifc, stl, ply, off")->required();
-    run_cmd->add_option("--out", out_dir, "Output directory (STEM.visdb, STEM.ply, STEM.obj)")->required();
+    run_cmd->add_option("--out", out_dir, "Output directory (STEM.visdb, STEM.ply, STEM.obj, STEM.png)")->required();
     add_import_options(*run_cmd, import_args);
     add_bake_options(*run_cmd, bake_args);
 
@@ -844,6 +844,9 @@ int run_cli(int argc, char** argv) {
             fs::rename(tmp_db, final_db);
             export_bake(final_db.string(), "", "ply", (fs::path(out_dir) / (stem + ".ply")).string(), false);
             export_bake(final_db.string(), "", "obj", (fs::path(out_dir) / (stem + ".obj")).string(), false);
+            // A first look through the scene's first camera (or the default one)
+            render_image(final_db.string(), "", (fs::path(out_dir) / (stem + ".png")).string(), ViewArgs{},
+                         false, std::nullopt, std::nullopt);
             std::cout << "database " << final_db.string() << "\n";
         }
     } catch (const CommandError& e) {

@@ -594,6 +594,7 @@ TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("coplanar overlapping triangle pairs (z-fighting): 0"), std::string::npos) << r.output;
     EXPECT_TRUE(fs::exists(path("cornell") / "CornellBox-Original.ply"));
+    EXPECT_TRUE(fs::exists(path("cornell") / "CornellBox-Original.png"));
     const std::string db = (path("cornell") / "CornellBox-Original.visdb").string();
     const glm::dvec3 e = probe_point(db, write("c.csv", "-0.005,0.03,1.3,0,0,1\n"));
     const double f = centred_rectangle_form_factor(0.47, 0.38, 0.68);
