@@ -130,11 +130,14 @@ void draw_bitmap_text(Image& img, int x, int y, std::string_view text, int scale
     }
 }
 
-// Short text of a tick value: three significant digits, no trailing zeros.
+// Short text of a tick value: whole numbers from 1000 up (lux values), else three significant
+// digits without trailing zeros.
 std::string tick_label(double v) {
     if (std::abs(v) < 1e-12) v = 0.0;
-    char buf[32];
-    const auto res = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 3);
+    char buf[400];
+    const auto res = std::abs(v) >= 1000.0 && std::abs(v) < 1e15
+                         ? std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed, 0)
+                         : std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 3);
     return std::string(buf, res.ptr);
 }
 
@@ -145,8 +148,6 @@ ImageBuf to_buf(const Image& img) {
                    img.rgb.data());
     return buf;
 }
-
-const char* kDejaVu = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 
 }  // namespace
 
@@ -236,7 +237,7 @@ glm::vec3 false_colour(double t) {
 
 void write_false_colour_image(const fs::path& path, int width, int height,
                               std::span<const double> values, double vmin, double vmax,
-                              std::string_view unit) {
+                              std::string_view unit, const fs::path& font) {
     if (width <= 0 || height <= 0)
         fail(path, "cannot write an image of " + std::to_string(width) + "x" + std::to_string(height) + " pixels");
     if (values.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height))
@@ -290,14 +291,15 @@ void write_false_colour_image(const fs::path& path, int width, int height,
 
     // Labels: DejaVu Sans through OpenImageIO, else the bitmap font
     bool drawn = false;
-    if (fs::exists(kDejaVu)) {
+    if (!font.empty() && fs::exists(font)) {
+        const std::string font_name = font.string();
         ImageBuf buf = to_buf(img);
         const int size = 11 * scale;
         const float white[3] = {1.0f, 1.0f, 1.0f};
-        bool ok = OIIO::ImageBufAlgo::render_text(buf, bar_x, 14 * scale, std::string(unit), size, kDejaVu, white);
+        bool ok = OIIO::ImageBufAlgo::render_text(buf, bar_x, 14 * scale, std::string(unit), size, font_name, white);
         for (int k = 0; ok && k < kTicks; ++k)
             ok = OIIO::ImageBufAlgo::render_text(buf, text_x, tick_y[static_cast<std::size_t>(k)] + 4 * scale,
-                                                 labels[static_cast<std::size_t>(k)], size, kDejaVu, white);
+                                                 labels[static_cast<std::size_t>(k)], size, font_name, white);
         if (ok) {
             buf.get_pixels(OIIO::ROI(0, total_w, 0, height, 0, 1, 0, 3), TypeDesc::FLOAT, img.rgb.data());
             drawn = true;

@@ -125,6 +125,26 @@ TEST(FalseColour, ImageHasValuesNoDataAndALabelledLegend) {
     EXPECT_GT(bright, 30);
 }
 
+TEST(FalseColour, WithoutTheFontTheBitmapFontDrawsTheLabels) {
+    const int w = 40, h = 100;
+    std::vector<double> values(static_cast<std::size_t>(w * h), 3.0);
+    const fs::path p = temp_path("bitmap.png");
+    write_false_colour_image(p, w, h, values, 0.0, 1000.0, "lux", temp_path("no-such-font.ttf"));
+    const Image img = read_image(p);
+    // Labels "0", "250", "500", "750", "1000" and "lux" in white 5x7 glyphs right of the bar
+    int white = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = w; x < img.width; ++x)
+            if (img.at(x, y, 0) == 1.0f && img.at(x, y, 1) == 1.0f && img.at(x, y, 2) == 1.0f) ++white;
+    EXPECT_GT(white, 100);
+    // The "0" at the bottom tick (y = h - 8): its glyph's top row 0x0E lights columns 1..3
+    const int text_x = w + 8 + 16 + 6;
+    EXPECT_EQ(img.at(text_x, h - 8 - 3, 0), 0.0f);
+    EXPECT_EQ(img.at(text_x + 1, h - 8 - 3, 0), 1.0f);
+    EXPECT_EQ(img.at(text_x + 3, h - 8 - 3, 0), 1.0f);
+    EXPECT_EQ(img.at(text_x + 4, h - 8 - 3, 0), 0.0f);
+}
+
 TEST(FalseColour, RejectsAnEmptyRangeAndWrongSizes) {
     std::vector<double> values(4, 1.0);
     EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 2, 2, values, 1.0, 1.0, "lux"), ExportError);

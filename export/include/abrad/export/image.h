@@ -46,6 +46,9 @@ void write_image(const std::filesystem::path& path, int width, int height,
 /// past the third (alpha) are dropped. Throws ExportError "PATH: ..." when unreadable.
 Image read_image(const std::filesystem::path& path);
 
+/// The legend's default font (Debian fonts-dejavu-core).
+inline const std::filesystem::path kLegendFont = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+
 /// A perceptual false-colour scale (viridis: dark blue → green → yellow, lightness rising
 /// monotonically) as *linear* RGB, ready for write_image. `t` is clamped to [0, 1]; NaN gives
 /// the colour of 0.
@@ -55,12 +58,15 @@ glm::vec3 false_colour(double t);
 /// as a false-colour image through false_colour((v - vmin) / (vmax - vmin)), with a legend bar
 /// to the right: the colour scale from vmin (bottom) to vmax (top), five tick labels and the
 /// unit (e.g. "W/m²" or "lux") above it. The file is `width + legend width` pixels wide (the
-/// legend is about 90 pixels, more for long labels). Labels use DejaVu Sans through OpenImageIO
-/// when the font is installed, else a built-in 5×7 bitmap font. Throws ExportError on a size
-/// mismatch, vmax <= vmin, non-finite bounds or a write failure.
+/// legend is about 90 pixels, more for long labels). Labels use the TrueType `font` (DejaVu
+/// Sans from fonts-dejavu-core by default) through OpenImageIO's render_text when that file
+/// exists and renders, else a built-in 5×7 bitmap font (digits, '.', '-', '+', 'e', and the
+/// letters of "W/m²", "lux"). Throws ExportError on a size mismatch, vmax <= vmin, non-finite
+/// bounds or a write failure.
 void write_false_colour_image(const std::filesystem::path& path, int width, int height,
                               std::span<const double> values, double vmin, double vmax,
-                              std::string_view unit);
+                              std::string_view unit,
+                              const std::filesystem::path& font = kLegendFont);
 
 /// How two images differ, in linear light over every pixel and RGB channel.
 struct ImageDifference {
