@@ -654,3 +654,30 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
     EXPECT_EQ(r.status, 2) << r.output;
     EXPECT_NE(r.output.find("abrad render: no camera 'attic'"), std::string::npos) << r.output;
 }
+
+// Cameras of the scene file reach the pov export and abrad render by name; the first is the
+// default when --camera is not given.
+TEST_F(Cli, SceneFileCamerasByName) {
+    const std::string db = path("cams.visdb").string();
+    const std::string scene = write("cams.toml",
+                                    "[[camera]]\nname = \"top\"\nposition = [0.25, 0.5, 2.5]\nlook_at = [0.25, 0.5, 0]\n"
+                                    "up = [0, 1, 0]\nfov = 50\n\n"
+                                    "[[camera]]\nname = \"corner\"\nposition = [-1.5, -1.5, 1.6]\nlook_at = [0, 0, 1]\n");
+    ASSERT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db + " --scene " + scene).status, 0);
+    ASSERT_EQ(run("bake --db " + db + " --dm off").status, 0);
+    Result r = run("export --db " + db + " --format pov --camera top --output " + path("top.pov").string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(bytes(path("top.pov")).find("location <0.25,0.5,2.5>"), std::string::npos);
+    EXPECT_NE(bytes(path("top.pov")).find("direction <0,0,-1>"), std::string::npos);
+    const std::string top = path("top.exr").string(), first = path("first.exr").string(),
+                      corner = path("corner.exr").string();
+    r = run("render --db " + db + " --camera top --output " + top + " --width 64 --height 48");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("camera 'top'"), std::string::npos) << r.output;
+    r = run("render --db " + db + " --output " + first + " --width 64 --height 48");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("camera 'top'"), std::string::npos) << r.output;
+    ASSERT_EQ(run("render --db " + db + " --camera corner --output " + corner + " --width 64 --height 48").status, 0);
+    EXPECT_EQ(run("compare " + top + " " + first + " --max-error 0").status, 0);
+    EXPECT_EQ(run("compare " + top + " " + corner + " --min-psnr 40").status, 1);
+}
