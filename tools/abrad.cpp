@@ -814,8 +814,20 @@ int run_cli(int argc, char** argv) {
         } else if (cmd == "bake") {
             bake_into(db, to_options(bake_args));
         } else if (cmd == "export") {
+            // An option given but not used by the format is an error, never ignored
+            const bool pov = format == "pov" || format == "pov-reference";
+            for (const char* name : {"--light-samples", "--reference-bounces", "--quality"})
+                if (export_cmd->count(name) && format != "pov-reference")
+                    bad_input(std::string(name) + " applies to --format pov-reference only");
+            for (const char* name : {"--camera", "--width", "--height"})
+                if (export_cmd->count(name) && !pov)
+                    bad_input(std::string(name) + " applies to --format pov and pov-reference only");
+            if (ascii && format != "ply") bad_input("--ascii applies to --format ply only");
             export_bake(db, bake_name, format, output, ascii, view);
         } else if (cmd == "render") {
+            for (const char* name : {"--vmin", "--vmax"})
+                if (render_cmd->count(name) && !false_colour)
+                    bad_input(std::string(name) + " applies to --false-colour only");
             render_image(db, bake_name, output, view, false_colour, vmin, vmax);
         } else if (cmd == "compare") {
             return compare_images(compare_args);

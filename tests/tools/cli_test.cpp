@@ -650,6 +650,11 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
     EXPECT_NE(r.output.find("nope.png"), std::string::npos) << r.output;
     r = run("compare " + png + " " + path("fc.png").string());
     EXPECT_EQ(r.status, 2) << r.output;
+    r = run("export --db " + db + " --format ply --light-samples 4 --output " + path("x.ply").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("--light-samples applies to --format pov-reference only"), std::string::npos) << r.output;
+    r = run("render --db " + db + " --output " + png + " --vmax 3");
+    EXPECT_EQ(r.status, 2) << r.output;
     r = run("render --db " + db + " --output " + png + " --camera attic");
     EXPECT_EQ(r.status, 2) << r.output;
     EXPECT_NE(r.output.find("abrad render: no camera 'attic'"), std::string::npos) << r.output;
