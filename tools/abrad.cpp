@@ -437,6 +437,11 @@ void export_bake(const std::string& db, const std::string& bake_name, const std:
 void render_image(const std::string& db, const std::string& bake_name, const std::string& output,
                   const ViewArgs& view, bool false_colour, std::optional<double> vmin,
                   std::optional<double> vmax) {
+    std::string ext = fs::path(output).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".png" && ext != ".exr" && ext != ".hdr" && ext != ".jpg" && ext != ".jpeg" && ext != ".tif" &&
+        ext != ".tiff")
+        bad_input(output + ": unknown image type '" + ext + "' (png, exr, hdr, jpg, tif)");
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
     const visdb::Bake b = load_bake_for(store, db, bake_name, "render");
     const visdb::Scene scene = store.load_scene();
@@ -449,8 +454,6 @@ void render_image(const std::string& db, const std::string& bake_name, const std
         {.width = view.width, .height = view.height,
          .quantity = false_colour ? exporter::RenderQuantity::Irradiance : exporter::RenderQuantity::Radiosity});
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::string ext = fs::path(output).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (false_colour) {
         // Irradiance luminance, no data where nothing was hit
         std::vector<double> values(r.value.size());

@@ -335,3 +335,24 @@ TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) 
     EXPECT_GT(checked, 100);
     RecordProperty("worst_relative_error", std::to_string(worst));
 }
+
+TEST(PovReference, RadiosityBouncesAddIndirectLightInAClosedRoom) {
+    if (!have_povray()) GTEST_SKIP() << "povray not installed";
+    // The closed 6 x 4 x 3 m room (reflectance 0.5) seen from the default camera: POV-Ray's
+    // radiosity must brighten it, by less than the geometric series 1 / (1 - rho) = 2 allows
+    const visdb::Scene s = box_room();
+    const int w = 48, h = 36;
+    double mean[2] = {0.0, 0.0};
+    for (int bounces = 0; bounces < 2; ++bounces) {
+        const fs::path dir = temp_dir("pov_radiosity_" + std::to_string(bounces));
+        write_pov_reference(dir / "scene.pov", s,
+                            {.view = {.camera = default_camera(s), .width = w, .height = h, .exposure = 0.1},
+                             .light_samples = 16, .bounces = bounces * 3, .quality = PovQuality::Low});
+        povray(dir, w, h);
+        const Image img = read_image(dir / "out.exr");
+        for (float v : img.rgb) mean[bounces] += std::min(static_cast<double>(v), 4.0);  // the light clipped
+        mean[bounces] /= static_cast<double>(img.rgb.size());
+    }
+    EXPECT_GT(mean[1], 1.2 * mean[0]);
+    EXPECT_LT(mean[1], 2.0 * mean[0]);
+}

@@ -653,6 +653,9 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
     r = run("export --db " + db + " --format ply --light-samples 4 --output " + path("x.ply").string());
     EXPECT_EQ(r.status, 2) << r.output;
     EXPECT_NE(r.output.find("--light-samples applies to --format pov-reference only"), std::string::npos) << r.output;
+    r = run("render --db " + db + " --output " + path("own.bmpx").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("own.bmpx: unknown image type '.bmpx'"), std::string::npos) << r.output;
     r = run("render --db " + db + " --output " + png + " --vmax 3");
     EXPECT_EQ(r.status, 2) << r.output;
     r = run("render --db " + db + " --output " + png + " --camera attic");
