@@ -1,15 +1,14 @@
 // glTF 2.0 export of a bake through tinygltf (declaration in writers.h): baked colours as
 // COLOR_0 under KHR_materials_unlit materials, metres, Y up.
 
+#include <tiny_gltf.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cstring>
+#include <glm/common.hpp>
 #include <limits>
 #include <map>
-
-#include <glm/common.hpp>
-
-#include <tiny_gltf.h>
 
 #include "abrad/export/writers.h"
 #include "output.h"
@@ -39,7 +38,8 @@ int add_view(tinygltf::Model& model, const void* data, std::size_t bytes, int ta
 
 int add_vec3_accessor(tinygltf::Model& model, const std::vector<float>& xyz, bool with_bounds) {
     tinygltf::Accessor a;
-    a.bufferView = add_view(model, xyz.data(), xyz.size() * sizeof(float), TINYGLTF_TARGET_ARRAY_BUFFER);
+    a.bufferView =
+        add_view(model, xyz.data(), xyz.size() * sizeof(float), TINYGLTF_TARGET_ARRAY_BUFFER);
     a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
     a.type = TINYGLTF_TYPE_VEC3;
     a.count = xyz.size() / 3;
@@ -61,8 +61,10 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
                 const visdb::BakeMesh& mesh, const ToneMap& tone) {
     detail::validate_bake_mesh(path, mesh);
     std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (ext != ".gltf" && ext != ".glb") detail::fail(path, "glTF output must end in .gltf or .glb");
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".gltf" && ext != ".glb")
+        detail::fail(path, "glTF output must end in .gltf or .glb");
     const bool binary = ext == ".glb";
 
     tinygltf::Model model;
@@ -72,7 +74,8 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
     model.buffers.emplace_back();
 
     // The root node carries the mesh's rounded centre, in double; positions are relative to it
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()),
+        hi(-std::numeric_limits<double>::infinity());
     for (const auto& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
     const glm::dvec3 origin = lo.x <= hi.x ? glm::round(0.5 * (lo + hi)) : glm::dvec3(0.0);
 
@@ -86,7 +89,8 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
             const std::size_t o = 3 * i + static_cast<std::size_t>(c);
             pos[o] = static_cast<float>(p[c]);
             nor[o] = static_cast<float>(q[c]);
-            col[o] = static_cast<float>(tone_value(static_cast<double>(mesh.radiosity[i][c]), tone));
+            col[o] =
+                static_cast<float>(tone_value(static_cast<double>(mesh.radiosity[i][c]), tone));
             irr[o] = mesh.irradiance[i][c];
             rad[o] = mesh.radiosity[i][c];
         }
@@ -110,8 +114,9 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
     std::map<std::uint32_t, int> material_index;
     for (const auto& [surface, idx] : by_surface) {
         // An unlit material per scene material
-        const std::uint32_t m = surface < scene.surfaces.size() ? scene.surfaces[surface].material
-                                                                : std::numeric_limits<std::uint32_t>::max();
+        const std::uint32_t m = surface < scene.surfaces.size()
+                                    ? scene.surfaces[surface].material
+                                    : std::numeric_limits<std::uint32_t>::max();
         auto it = material_index.find(m);
         if (it == material_index.end()) {
             tinygltf::Material mat;
@@ -136,10 +141,14 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
         prim.mode = TINYGLTF_MODE_TRIANGLES;
         prim.indices = static_cast<int>(model.accessors.size() - 1);
         prim.material = it->second;
-        prim.attributes = {{"POSITION", a_pos}, {"NORMAL", a_nor}, {"COLOR_0", a_col},
-                           {"_IRRADIANCE", a_irr}, {"_RADIOSITY", a_rad}};
+        prim.attributes = {{"POSITION", a_pos},
+                           {"NORMAL", a_nor},
+                           {"COLOR_0", a_col},
+                           {"_IRRADIANCE", a_irr},
+                           {"_RADIOSITY", a_rad}};
         tinygltf::Mesh gm;
-        gm.name = surface < scene.surfaces.size() ? scene.surfaces[surface].name : "surface " + std::to_string(surface);
+        gm.name = surface < scene.surfaces.size() ? scene.surfaces[surface].name
+                                                  : "surface " + std::to_string(surface);
         gm.primitives.push_back(prim);
         model.meshes.push_back(gm);
         tinygltf::Node node;

@@ -2,6 +2,11 @@
 
 #include "abrad/export/image.h"
 
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
+#include <OpenImageIO/strutil.h>
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -10,11 +15,6 @@
 #include <cstdint>
 #include <limits>
 #include <sstream>
-
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
-#include <OpenImageIO/imageio.h>
-#include <OpenImageIO/strutil.h>
 
 #include "abrad/export/writers.h"
 
@@ -122,8 +122,11 @@ void draw_bitmap_text(Image& img, int x, int y, std::string_view text, int scale
                         const int px = cx + col * scale + sx, py = y + row * scale + sy;
                         if (px < 0 || py < 0 || px >= img.width || py >= img.height) continue;
                         for (int k = 0; k < 3; ++k)
-                            img.rgb[(static_cast<std::size_t>(py) * static_cast<std::size_t>(img.width) +
-                                     static_cast<std::size_t>(px)) * 3 + static_cast<std::size_t>(k)] = 1.0f;
+                            img.rgb[(static_cast<std::size_t>(py) *
+                                         static_cast<std::size_t>(img.width) +
+                                     static_cast<std::size_t>(px)) *
+                                        3 +
+                                    static_cast<std::size_t>(k)] = 1.0f;
                     }
             }
         cx += 6 * scale;
@@ -162,7 +165,8 @@ double srgb_decode(double v) {
 
 void write_image(const fs::path& path, int width, int height, std::span<const float> rgb) {
     if (width <= 0 || height <= 0)
-        fail(path, "cannot write an image of " + std::to_string(width) + "x" + std::to_string(height) + " pixels");
+        fail(path, "cannot write an image of " + std::to_string(width) + "x" +
+                       std::to_string(height) + " pixels");
     const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3;
     if (rgb.size() != n)
         fail(path, "image buffer has " + std::to_string(rgb.size()) + " values, " +
@@ -170,7 +174,8 @@ void write_image(const fs::path& path, int width, int height, std::span<const fl
                        std::to_string(n));
     const std::string ext = lower_extension(path);
     auto out = OIIO::ImageOutput::create(path.string());
-    if (!out) fail(path, "cannot write: no image format for '" + ext + "' (" + OIIO::geterror() + ")");
+    if (!out)
+        fail(path, "cannot write: no image format for '" + ext + "' (" + OIIO::geterror() + ")");
 
     if (is_linear_format(ext)) {
         // Linear formats keep the values; EXR as half float
@@ -206,10 +211,13 @@ Image read_image(const fs::path& path) {
     const bool srgb = !(native == TypeDesc::FLOAT || native == TypeDesc::HALF) &&
                       (space.empty() || OIIO::Strutil::iequals(space, "sRGB"));
     Image img{spec.width, spec.height, {}};
-    img.rgb.resize(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) * 3);
+    img.rgb.resize(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
+                   3);
     const auto nc = static_cast<std::size_t>(spec.nchannels);
-    std::vector<float> all(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) * nc);
-    if (!buf.get_pixels(OIIO::ROI(spec.x, spec.x + spec.width, spec.y, spec.y + spec.height, 0, 1, 0, spec.nchannels),
+    std::vector<float> all(static_cast<std::size_t>(spec.width) *
+                           static_cast<std::size_t>(spec.height) * nc);
+    if (!buf.get_pixels(OIIO::ROI(spec.x, spec.x + spec.width, spec.y, spec.y + spec.height, 0, 1,
+                                  0, spec.nchannels),
                         TypeDesc::FLOAT, all.data()))
         fail(path, "cannot read image: " + buf.geterror());
     for (std::size_t p = 0, i = 0; p < all.size(); p += nc)
@@ -239,12 +247,14 @@ void write_false_colour_image(const fs::path& path, int width, int height,
                               std::span<const double> values, double vmin, double vmax,
                               std::string_view unit, const fs::path& font) {
     if (width <= 0 || height <= 0)
-        fail(path, "cannot write an image of " + std::to_string(width) + "x" + std::to_string(height) + " pixels");
+        fail(path, "cannot write an image of " + std::to_string(width) + "x" +
+                       std::to_string(height) + " pixels");
     if (values.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height))
         fail(path, "false-colour image has " + std::to_string(values.size()) + " values for " +
                        std::to_string(width) + "x" + std::to_string(height) + " pixels");
     if (!std::isfinite(vmin) || !std::isfinite(vmax) || !(vmax > vmin))
-        fail(path, "false-colour range [" + tick_label(vmin) + ", " + tick_label(vmax) + "] is empty");
+        fail(path,
+             "false-colour range [" + tick_label(vmin) + ", " + tick_label(vmax) + "] is empty");
 
     // Tick labels decide the legend's width
     constexpr int kTicks = 5;
@@ -256,35 +266,44 @@ void write_false_colour_image(const fs::path& path, int width, int height,
     }
     const int scale = height >= 360 ? 2 : 1;
     const int bar_x = width + 8 * scale, bar_w = 16 * scale;
-    const int legend_w = 8 * scale + bar_w + 6 * scale + static_cast<int>(longest) * 6 * scale + 8 * scale;
+    const int legend_w =
+        8 * scale + bar_w + 6 * scale + static_cast<int>(longest) * 6 * scale + 8 * scale;
     const int total_w = width + std::max(legend_w, 90);
     const int bar_top = 20 * scale, bar_bottom = height - 8 * scale;
 
-    Image img{total_w, height, std::vector<float>(static_cast<std::size_t>(total_w) * static_cast<std::size_t>(height) * 3, 0.0f)};
+    Image img{total_w, height,
+              std::vector<float>(
+                  static_cast<std::size_t>(total_w) * static_cast<std::size_t>(height) * 3, 0.0f)};
     auto set = [&](int x, int y, const glm::vec3& c) {
-        const std::size_t o = (static_cast<std::size_t>(y) * static_cast<std::size_t>(total_w) + static_cast<std::size_t>(x)) * 3;
+        const std::size_t o = (static_cast<std::size_t>(y) * static_cast<std::size_t>(total_w) +
+                               static_cast<std::size_t>(x)) *
+                              3;
         img.rgb[o] = c.r, img.rgb[o + 1] = c.g, img.rgb[o + 2] = c.b;
     };
     // Map the values; no data is dark grey
     const glm::vec3 no_data(0.02f);
     for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {
-            const double v = values[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)];
+            const double v = values[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                                    static_cast<std::size_t>(x)];
             set(x, y, std::isnan(v) ? no_data : false_colour((v - vmin) / (vmax - vmin)));
         }
     // Draw the legend bar, vmax at the top
     if (bar_bottom > bar_top) {
         for (int y = bar_top; y <= bar_bottom; ++y) {
-            const double t = static_cast<double>(bar_bottom - y) / static_cast<double>(bar_bottom - bar_top);
+            const double t =
+                static_cast<double>(bar_bottom - y) / static_cast<double>(bar_bottom - bar_top);
             for (int x = bar_x; x < bar_x + bar_w; ++x) set(x, y, false_colour(t));
         }
     }
     // Tick marks at the label positions
     std::array<int, kTicks> tick_y{};
     for (int k = 0; k < kTicks; ++k) {
-        tick_y[static_cast<std::size_t>(k)] = bar_bottom - (bar_bottom - bar_top) * k / (kTicks - 1);
+        tick_y[static_cast<std::size_t>(k)] =
+            bar_bottom - (bar_bottom - bar_top) * k / (kTicks - 1);
         for (int x = bar_x + bar_w; x < bar_x + bar_w + 4 * scale && x < total_w; ++x)
-            if (tick_y[static_cast<std::size_t>(k)] >= 0 && tick_y[static_cast<std::size_t>(k)] < height)
+            if (tick_y[static_cast<std::size_t>(k)] >= 0 &&
+                tick_y[static_cast<std::size_t>(k)] < height)
                 set(x, tick_y[static_cast<std::size_t>(k)], glm::vec3(1.0f));
     }
     const int text_x = bar_x + bar_w + 6 * scale;
@@ -296,12 +315,15 @@ void write_false_colour_image(const fs::path& path, int width, int height,
         ImageBuf buf = to_buf(img);
         const int size = 11 * scale;
         const float white[3] = {1.0f, 1.0f, 1.0f};
-        bool ok = OIIO::ImageBufAlgo::render_text(buf, bar_x, 14 * scale, std::string(unit), size, font_name, white);
+        bool ok = OIIO::ImageBufAlgo::render_text(buf, bar_x, 14 * scale, std::string(unit), size,
+                                                  font_name, white);
         for (int k = 0; ok && k < kTicks; ++k)
-            ok = OIIO::ImageBufAlgo::render_text(buf, text_x, tick_y[static_cast<std::size_t>(k)] + 4 * scale,
-                                                 labels[static_cast<std::size_t>(k)], size, font_name, white);
+            ok = OIIO::ImageBufAlgo::render_text(
+                buf, text_x, tick_y[static_cast<std::size_t>(k)] + 4 * scale,
+                labels[static_cast<std::size_t>(k)], size, font_name, white);
         if (ok) {
-            buf.get_pixels(OIIO::ROI(0, total_w, 0, height, 0, 1, 0, 3), TypeDesc::FLOAT, img.rgb.data());
+            buf.get_pixels(OIIO::ROI(0, total_w, 0, height, 0, 1, 0, 3), TypeDesc::FLOAT,
+                           img.rgb.data());
             drawn = true;
         }
     }
@@ -352,7 +374,8 @@ Image difference_image(const Image& a, const Image& b, double gain) {
                           std::to_string(b.height));
     Image d{a.width, a.height, std::vector<float>(a.rgb.size())};
     for (std::size_t i = 0; i < a.rgb.size(); ++i)
-        d.rgb[i] = static_cast<float>(gain * std::abs(static_cast<double>(a.rgb[i]) - static_cast<double>(b.rgb[i])));
+        d.rgb[i] = static_cast<float>(
+            gain * std::abs(static_cast<double>(a.rgb[i]) - static_cast<double>(b.rgb[i])));
     return d;
 }
 

@@ -4,12 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <limits>
 #include <numbers>
 #include <string>
-
-#include <glm/common.hpp>
-#include <glm/geometric.hpp>
 
 #include "abrad/export/render.h"
 #include "abrad/export/writers.h"
@@ -56,7 +55,8 @@ std::string comment_name(std::string_view name) {
 }
 
 /// The preamble both exports share: version, exposure, global settings head, camera.
-std::string preamble(const std::filesystem::path& path, const PovView& view, std::string_view what) {
+std::string preamble(const std::filesystem::path& path, const PovView& view,
+                     std::string_view what) {
     const CameraFrame f = camera_frame(view.camera, view.width, view.height);
     std::string out;
     out += "// abrad: ";
@@ -85,7 +85,8 @@ std::string preamble(const std::filesystem::path& path, const PovView& view, std
 /// single-precision mesh vertices keep millimetres at survey coordinates.
 template <typename Points>
 glm::dvec3 local_origin(const Points& points) {
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()),
+        hi(-std::numeric_limits<double>::infinity());
     for (const glm::dvec3& p : points) lo = glm::min(lo, p), hi = glm::max(hi, p);
     if (!(lo.x <= hi.x)) return glm::dvec3(0.0);
     return glm::round(0.5 * (lo + hi));
@@ -98,14 +99,18 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
     detail::validate_bake_mesh(path, mesh);
     std::string out;
     try {
-        out = preamble(path, view, "baked radiosity shown unlit, Gouraud-interpolated (abrad export --format pov)");
+        out = preamble(
+            path, view,
+            "baked radiosity shown unlit, Gouraud-interpolated (abrad export --format pov)");
     } catch (const std::invalid_argument& e) {
         detail::fail(path, e.what());
     }
     out += "global_settings { assumed_gamma 1.0 ambient_light 0 max_trace_level 1 }\n";
     out += "#declare Abrad_Finish = finish { ambient 0 diffuse 0 emission Abrad_Exposure }\n";
     // A bake shades the front of each face only: backs are black, as in abrad render
-    out += "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 } }\n";
+    out +=
+        "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 "
+        "} }\n";
     const glm::dvec3 origin = local_origin(mesh.positions);
 
     // Group the triangles by surface: one mesh2 per surface
@@ -133,7 +138,8 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
                 }
             }
         out += "// surface " + std::to_string(surface);
-        if (surface < scene.surfaces.size()) out += " '" + comment_name(scene.surfaces[surface].name) + "'";
+        if (surface < scene.surfaces.size())
+            out += " '" + comment_name(scene.surfaces[surface].name) + "'";
         out += "\nmesh2 {\n  vertex_vectors { " + std::to_string(used.size());
         for (const std::uint32_t v : used) {
             out += ",\n    ";
@@ -174,13 +180,15 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
 void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& scene,
                          const PovReferenceOptions& options) {
     if (options.light_samples < 1) detail::fail(path, "light_samples must be at least 1");
-    if (options.bounces < 0 || options.bounces > 20) detail::fail(path, "bounces must be in [0, 20]");
+    if (options.bounces < 0 || options.bounces > 20)
+        detail::fail(path, "bounces must be in [0, 20]");
     std::string out;
     try {
-        out = preamble(path, options.view,
-                       "the model lit by POV-Ray (abrad export --format pov-reference): point lights "
-                       "sampling Lambertian emitters" +
-                           std::string(options.bounces > 0 ? ", POV-Ray radiosity" : ", direct light only"));
+        out = preamble(
+            path, options.view,
+            "the model lit by POV-Ray (abrad export --format pov-reference): point lights "
+            "sampling Lambertian emitters" +
+                std::string(options.bounces > 0 ? ", POV-Ray radiosity" : ", direct light only"));
     } catch (const std::invalid_argument& e) {
         detail::fail(path, e.what());
     }
@@ -196,8 +204,8 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
         const Q q = options.quality == PovQuality::Low      ? Q{60, "1.5", "0.04"}
                     : options.quality == PovQuality::Medium ? Q{200, "0.6", "0.01"}
                                                             : Q{800, "0.25", "0.005"};
-        out += "  radiosity {\n    count " + std::to_string(q.count) + "\n    error_bound " + q.error_bound +
-               "\n    recursion_limit " + std::to_string(options.bounces) +
+        out += "  radiosity {\n    count " + std::to_string(q.count) + "\n    error_bound " +
+               q.error_bound + "\n    recursion_limit " + std::to_string(options.bounces) +
                "\n    pretrace_start 0.08\n    pretrace_end " + q.pretrace_end +
                "\n    nearest_count 10\n    low_error_factor 0.5\n    gray_threshold 0\n"
                "    minimum_reuse 0.01\n    brightness 1\n    adc_bailout 0.005\n  }\n";
@@ -207,7 +215,8 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
     // One texture per material
     for (std::size_t m = 0; m < scene.materials.size(); ++m) {
         const visdb::Material& mat = scene.materials[m];
-        out += "// material '" + comment_name(mat.name) + "'\n#declare Abrad_M" + std::to_string(m) + " = texture { pigment { rgbt <";
+        out += "// material '" + comment_name(mat.name) + "'\n#declare Abrad_M" +
+               std::to_string(m) + " = texture { pigment { rgbt <";
         if (mat.is_emitter()) {
             // Emitters show their exitance; their light comes from the point lights below
             for (int c = 0; c < 3; ++c) {
@@ -226,7 +235,8 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
     }
 
     std::vector<glm::dvec3> all;
-    for (const auto& s : scene.surfaces) all.insert(all.end(), s.mesh.positions.begin(), s.mesh.positions.end());
+    for (const auto& s : scene.surfaces)
+        all.insert(all.end(), s.mesh.positions.begin(), s.mesh.positions.end());
     const glm::dvec3 origin = local_origin(all);
 
     AtomicFile file(path);
@@ -234,24 +244,29 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
     for (std::size_t si = 0; si < scene.surfaces.size(); ++si) {
         const visdb::Surface& s = scene.surfaces[si];
         if (s.material >= scene.materials.size())
-            detail::fail(path, "surface " + std::to_string(si) + " has material " + std::to_string(s.material) +
-                                   " out of range (" + std::to_string(scene.materials.size()) + " materials)");
+            detail::fail(path, "surface " + std::to_string(si) + " has material " +
+                                   std::to_string(s.material) + " out of range (" +
+                                   std::to_string(scene.materials.size()) + " materials)");
         if (s.mesh.triangles.empty()) continue;
         const bool emitter = scene.materials[s.material].is_emitter();
-        out += "// surface " + std::to_string(si) + " '" + comment_name(s.name) + "'\nmesh2 {\n  vertex_vectors { " +
-               std::to_string(s.mesh.positions.size());
+        out += "// surface " + std::to_string(si) + " '" + comment_name(s.name) +
+               "'\nmesh2 {\n  vertex_vectors { " + std::to_string(s.mesh.positions.size());
         for (const auto& p : s.mesh.positions) {
             out += ",\n    ";
             append_vector_f(out, p - origin);
         }
         out += " }\n  face_indices { " + std::to_string(s.mesh.triangles.size());
         for (const auto& t : s.mesh.triangles) {
-            if (t.x >= s.mesh.positions.size() || t.y >= s.mesh.positions.size() || t.z >= s.mesh.positions.size())
-                detail::fail(path, "surface " + std::to_string(si) + ": triangle index out of range");
-            out += ",\n    <" + std::to_string(t.x) + "," + std::to_string(t.y) + "," + std::to_string(t.z) + ">";
+            if (t.x >= s.mesh.positions.size() || t.y >= s.mesh.positions.size() ||
+                t.z >= s.mesh.positions.size())
+                detail::fail(path,
+                             "surface " + std::to_string(si) + ": triangle index out of range");
+            out += ",\n    <" + std::to_string(t.x) + "," + std::to_string(t.y) + "," +
+                   std::to_string(t.z) + ">";
             if (emitter) {
-                emitting_area += 0.5 * glm::length(glm::cross(s.mesh.positions[t.y] - s.mesh.positions[t.x],
-                                                              s.mesh.positions[t.z] - s.mesh.positions[t.x]));
+                emitting_area +=
+                    0.5 * glm::length(glm::cross(s.mesh.positions[t.y] - s.mesh.positions[t.x],
+                                                 s.mesh.positions[t.z] - s.mesh.positions[t.x]));
             }
         }
         out += " }\n  texture { Abrad_M" + std::to_string(s.material) + " }\n  translate ";
@@ -266,18 +281,22 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
         const visdb::Material& mat = scene.materials[s.material];
         if (!mat.is_emitter()) continue;
         for (const auto& t : s.mesh.triangles) {
-            const glm::dvec3 &a = s.mesh.positions[t.x], &b = s.mesh.positions[t.y], &c = s.mesh.positions[t.z];
+            const glm::dvec3 &a = s.mesh.positions[t.x], &b = s.mesh.positions[t.y],
+                             &c = s.mesh.positions[t.z];
             const glm::dvec3 cr = glm::cross(b - a, c - a);
             const double area = 0.5 * glm::length(cr);
             if (!(area > 0.0)) continue;
             const glm::dvec3 n = cr / (2.0 * area);
-            const int k = std::max(1, static_cast<int>(std::lround(std::sqrt(
-                                          static_cast<double>(options.light_samples) * area / emitting_area))));
+            const int k = std::max(
+                1, static_cast<int>(std::lround(std::sqrt(
+                       static_cast<double>(options.light_samples) * area / emitting_area))));
             const double da = area / (static_cast<double>(k) * static_cast<double>(k));
-            // Colour E dA / (2 π F²): with fade 2F²/d² and cos θ at both ends this is dE = E dA cos cos / (π d²)
-            const glm::dvec3 colour = mat.emittance * da /
-                                      (2.0 * std::numbers::pi * kFadeDistance * kFadeDistance);
-            const glm::dvec3 u = (b - a) / static_cast<double>(k), v = (c - a) / static_cast<double>(k);
+            // Colour E dA / (2 π F²): with fade 2F²/d² and cos θ at both ends this is dE = E dA cos
+            // cos / (π d²)
+            const glm::dvec3 colour =
+                mat.emittance * da / (2.0 * std::numbers::pi * kFadeDistance * kFadeDistance);
+            const glm::dvec3 u = (b - a) / static_cast<double>(k),
+                             v = (c - a) / static_cast<double>(k);
             // The k² sub-triangles: k(k+1)/2 pointing like the triangle, k(k-1)/2 inverted
             auto emit = [&](const glm::dvec3& centroid) {
                 const glm::dvec3 p = centroid + kLightOffset * n;
@@ -295,7 +314,8 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
             };
             for (int i = 0; i < k; ++i)
                 for (int j = 0; i + j < k; ++j) {
-                    const glm::dvec3 p0 = a + static_cast<double>(i) * u + static_cast<double>(j) * v;
+                    const glm::dvec3 p0 =
+                        a + static_cast<double>(i) * u + static_cast<double>(j) * v;
                     emit(p0 + (u + v) / 3.0);
                     if (i + j + 1 < k) emit(p0 + 2.0 * (u + v) / 3.0);
                 }

@@ -4,12 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <limits>
 #include <numbers>
 #include <string>
-
-#include <glm/common.hpp>
-#include <glm/geometric.hpp>
 
 #include "abrad/export/writers.h"
 
@@ -24,7 +23,8 @@ double distance_above(const visdb::Scene& scene, const glm::dvec3& origin) {
     double best = std::numeric_limits<double>::infinity();
     const glm::dvec3 dir(0.0, 0.0, 1.0);
     for (const auto& s : scene.surfaces) {
-        if (s.material < scene.materials.size() && scene.materials[s.material].is_emitter()) continue;
+        if (s.material < scene.materials.size() && scene.materials[s.material].is_emitter())
+            continue;
         for (const auto& t : s.mesh.triangles) {
             const glm::dvec3& a = s.mesh.positions[t.x];
             const glm::dvec3 e1 = s.mesh.positions[t.y] - a, e2 = s.mesh.positions[t.z] - a;
@@ -75,7 +75,8 @@ visdb::Camera default_camera(const visdb::Scene& scene) {
     cam.fov_y_deg = 70.0;
 
     // Bounding box of the scene
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()),
+        hi(-std::numeric_limits<double>::infinity());
     for (const auto& s : scene.surfaces)
         for (const auto& p : s.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
     if (!(lo.x <= hi.x)) return cam;
@@ -84,14 +85,17 @@ visdb::Camera default_camera(const visdb::Scene& scene) {
     struct Floor {
         double area = 0.0;
         glm::dvec3 centroid{0.0};
-        glm::dvec2 min{std::numeric_limits<double>::infinity()}, max{-std::numeric_limits<double>::infinity()};
+        glm::dvec2 min{std::numeric_limits<double>::infinity()},
+            max{-std::numeric_limits<double>::infinity()};
     };
     std::vector<Floor> floors;
     for (const auto& s : scene.surfaces) {
-        if (s.material < scene.materials.size() && scene.materials[s.material].is_emitter()) continue;
+        if (s.material < scene.materials.size() && scene.materials[s.material].is_emitter())
+            continue;
         Floor f;
         for (const auto& t : s.mesh.triangles) {
-            const glm::dvec3 &a = s.mesh.positions[t.x], &b = s.mesh.positions[t.y], &c = s.mesh.positions[t.z];
+            const glm::dvec3 &a = s.mesh.positions[t.x], &b = s.mesh.positions[t.y],
+                             &c = s.mesh.positions[t.z];
             const glm::dvec3 n = glm::cross(b - a, c - a);
             const double len = glm::length(n);
             if (!(len > 0.0) || n.z / len < 0.9) continue;
@@ -108,7 +112,8 @@ visdb::Camera default_camera(const visdb::Scene& scene) {
             floors.push_back(f);
         }
     }
-    std::sort(floors.begin(), floors.end(), [](const Floor& a, const Floor& b) { return a.area > b.area; });
+    std::sort(floors.begin(), floors.end(),
+              [](const Floor& a, const Floor& b) { return a.area > b.area; });
 
     // The largest floor with a ceiling above its centroid is the room
     for (std::size_t i = 0; i < floors.size() && i < 16; ++i) {
@@ -133,7 +138,8 @@ visdb::Camera default_camera(const visdb::Scene& scene) {
 
 CameraFrame camera_frame(const visdb::Camera& camera, int width, int height) {
     if (width <= 0 || height <= 0)
-        throw std::invalid_argument("image size " + std::to_string(width) + "x" + std::to_string(height) + " is not positive");
+        throw std::invalid_argument("image size " + std::to_string(width) + "x" +
+                                    std::to_string(height) + " is not positive");
     const glm::dvec3 view = camera.look_at - camera.position;
     if (!(glm::length(view) > 0.0))
         throw CameraError("camera '" + camera.name + "': position and look_at coincide");
@@ -158,13 +164,17 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
     const int w = options.width, h = options.height;
     const CameraFrame f = camera_frame(camera, w, h);
     const std::size_t n = mesh.positions.size();
-    const auto& values = options.quantity == RenderQuantity::Radiosity ? mesh.radiosity : mesh.irradiance;
+    const auto& values =
+        options.quantity == RenderQuantity::Radiosity ? mesh.radiosity : mesh.irradiance;
     if (values.size() != n)
         throw ExportError("render: the bake mesh has " + std::to_string(values.size()) +
                           " vertex values for " + std::to_string(n) + " positions");
 
-    Raster r{w, h, std::vector<glm::vec3>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), glm::vec3(0.0f)),
-             std::vector<std::uint8_t>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0)};
+    Raster r{
+        w, h,
+        std::vector<glm::vec3>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h),
+                               glm::vec3(0.0f)),
+        std::vector<std::uint8_t>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0)};
     std::vector<double> depth(r.value.size(), std::numeric_limits<double>::infinity());
 
     // Camera space: (right, up, forward) relative to the eye, in double
@@ -175,25 +185,30 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
     const double W = static_cast<double>(w), H = static_cast<double>(h);
     // Screen position of a camera-space point (pixel units, x right, y down)
     auto to_screen = [&](const glm::dvec3& c) {
-        return glm::dvec2((c.x / c.z / f.right_extent + 0.5) * W, (0.5 - c.y / c.z / f.up_extent) * H);
+        return glm::dvec2((c.x / c.z / f.right_extent + 0.5) * W,
+                          (0.5 - c.y / c.z / f.up_extent) * H);
     };
 
     std::vector<ClipVertex> poly, clipped;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const auto& tri = mesh.triangles[t];
         if (tri.x >= n || tri.y >= n || tri.z >= n)
-            throw ExportError("render: triangle " + std::to_string(t) + " indexes a vertex out of range");
+            throw ExportError("render: triangle " + std::to_string(t) +
+                              " indexes a vertex out of range");
         poly.clear();
         for (int k = 0; k < 3; ++k) {
             const std::uint32_t i = tri[k];
             const glm::vec3 v = values[i];
-            poly.push_back({to_camera(mesh.positions[i]), glm::dvec3(std::isfinite(v.x) ? v.x : 0.0f,
-                                                                      std::isfinite(v.y) ? v.y : 0.0f,
-                                                                      std::isfinite(v.z) ? v.z : 0.0f)});
+            poly.push_back(
+                {to_camera(mesh.positions[i]),
+                 glm::dvec3(std::isfinite(v.x) ? v.x : 0.0f, std::isfinite(v.y) ? v.y : 0.0f,
+                            std::isfinite(v.z) ? v.z : 0.0f)});
         }
         // A bake shades the front of each face only: its back shows black
         const glm::dvec3& p0 = mesh.positions[tri.x];
-        const bool back = glm::dot(glm::cross(mesh.positions[tri.y] - p0, mesh.positions[tri.z] - p0), f.eye - p0) < 0.0;
+        const bool back =
+            glm::dot(glm::cross(mesh.positions[tri.y] - p0, mesh.positions[tri.z] - p0),
+                     f.eye - p0) < 0.0;
         // Clip the triangle at the near plane (Sutherland–Hodgman against forward >= near)
         clipped.clear();
         for (std::size_t k = 0; k < poly.size(); ++k) {
@@ -213,10 +228,13 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
             const ClipVertex* v[3] = {&clipped[0], &clipped[k], &clipped[k + 1]};
             glm::dvec2 s[3];
             for (int m = 0; m < 3; ++m) s[m] = to_screen(v[m]->c);
-            const double area = (s[1].x - s[0].x) * (s[2].y - s[0].y) - (s[2].x - s[0].x) * (s[1].y - s[0].y);
+            const double area =
+                (s[1].x - s[0].x) * (s[2].y - s[0].y) - (s[2].x - s[0].x) * (s[1].y - s[0].y);
             if (!(std::abs(area) > 0.0)) continue;
-            const double xmin = std::min({s[0].x, s[1].x, s[2].x}), xmax = std::max({s[0].x, s[1].x, s[2].x});
-            const double ymin = std::min({s[0].y, s[1].y, s[2].y}), ymax = std::max({s[0].y, s[1].y, s[2].y});
+            const double xmin = std::min({s[0].x, s[1].x, s[2].x}),
+                         xmax = std::max({s[0].x, s[1].x, s[2].x});
+            const double ymin = std::min({s[0].y, s[1].y, s[2].y}),
+                         ymax = std::max({s[0].y, s[1].y, s[2].y});
             const int x0 = std::max(0, static_cast<int>(std::ceil(xmin - 0.5)));
             const int x1 = std::min(w - 1, static_cast<int>(std::floor(xmax - 0.5)));
             const int y0 = std::max(0, static_cast<int>(std::ceil(ymin - 0.5)));
@@ -234,10 +252,13 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
                     }
                     if (b[0] < 0.0 || b[1] < 0.0 || b[2] < 0.0) continue;
                     // Perspective-correct weights: screen barycentrics over view depth
-                    const double w0 = b[0] / v[0]->c.z, w1 = b[1] / v[1]->c.z, w2 = b[2] / v[2]->c.z;
+                    const double w0 = b[0] / v[0]->c.z, w1 = b[1] / v[1]->c.z,
+                                 w2 = b[2] / v[2]->c.z;
                     const double inv = w0 + w1 + w2;
                     const double z = 1.0 / inv;
-                    const std::size_t o = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+                    const std::size_t o =
+                        static_cast<std::size_t>(y) * static_cast<std::size_t>(w) +
+                        static_cast<std::size_t>(x);
                     if (!(z < depth[o])) continue;
                     depth[o] = z;
                     const glm::dvec3 val = (w0 * v[0]->v + w1 * v[1]->v + w2 * v[2]->v) * z;

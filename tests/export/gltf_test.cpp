@@ -2,13 +2,12 @@
 // materials, the irradiance/radiosity attributes.
 
 #include <gtest/gtest.h>
+#include <tiny_gltf.h>
 
 #include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include <tiny_gltf.h>
 
 #include "abrad/export/writers.h"
 
@@ -22,8 +21,9 @@ namespace {
 visdb::BakeMesh survey_mesh() {
     visdb::BakeMesh m;
     const glm::dvec3 o(1.0e6, 2.0e6, 10.0);
-    m.positions = {o + glm::dvec3(0, 0, 0), o + glm::dvec3(1.001, 0, 0), o + glm::dvec3(0, 2.002, 0),
-                   o + glm::dvec3(0, 0, 0), o + glm::dvec3(0, 2.002, 0), o + glm::dvec3(0, 0, 3.003)};
+    m.positions = {o + glm::dvec3(0, 0, 0),     o + glm::dvec3(1.001, 0, 0),
+                   o + glm::dvec3(0, 2.002, 0), o + glm::dvec3(0, 0, 0),
+                   o + glm::dvec3(0, 2.002, 0), o + glm::dvec3(0, 0, 3.003)};
     m.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}};
     m.triangles = {{0, 1, 2}, {3, 5, 4}};
     m.triangle_surface = {0, 1};
@@ -50,7 +50,8 @@ std::vector<float> read_vec3(const tinygltf::Model& model, int accessor) {
     const auto& view = model.bufferViews[static_cast<std::size_t>(a.bufferView)];
     const auto& buf = model.buffers[static_cast<std::size_t>(view.buffer)];
     std::vector<float> out(a.count * 3);
-    std::memcpy(out.data(), buf.data.data() + view.byteOffset + a.byteOffset, out.size() * sizeof(float));
+    std::memcpy(out.data(), buf.data.data() + view.byteOffset + a.byteOffset,
+                out.size() * sizeof(float));
     return out;
 }
 
@@ -62,8 +63,9 @@ void check_round_trip(const fs::path& path) {
     tinygltf::TinyGLTF loader;
     tinygltf::Model model;
     std::string err, warn;
-    const bool ok = path.extension() == ".glb" ? loader.LoadBinaryFromFile(&model, &err, &warn, path.string())
-                                               : loader.LoadASCIIFromFile(&model, &err, &warn, path.string());
+    const bool ok = path.extension() == ".glb"
+                        ? loader.LoadBinaryFromFile(&model, &err, &warn, path.string())
+                        : loader.LoadASCIIFromFile(&model, &err, &warn, path.string());
     ASSERT_TRUE(ok) << err;
     ASSERT_EQ(model.meshes.size(), 2u);
     EXPECT_EQ(model.meshes[1].name, "wall");
@@ -92,7 +94,8 @@ void check_round_trip(const fs::path& path) {
         EXPECT_NEAR(g.y, m.positions[i].z, 1e-5);
         EXPECT_FLOAT_EQ(nor[3 * i + 1], m.normals[i].z);
         for (int c = 0; c < 3; ++c) {
-            EXPECT_NEAR(col[3 * i + static_cast<std::size_t>(c)], tone_value(m.radiosity[i][c], tone), 1e-6);
+            EXPECT_NEAR(col[3 * i + static_cast<std::size_t>(c)],
+                        tone_value(m.radiosity[i][c], tone), 1e-6);
             EXPECT_FLOAT_EQ(irr[3 * i + static_cast<std::size_t>(c)], m.irradiance[i][c]);
         }
     }
@@ -110,11 +113,13 @@ void check_round_trip(const fs::path& path) {
 }  // namespace
 
 TEST(GltfExport, RoundTripGltf) {
-    check_round_trip(fs::temp_directory_path() / ("abrad_gltf_" + std::to_string(::getpid()) + ".gltf"));
+    check_round_trip(fs::temp_directory_path() /
+                     ("abrad_gltf_" + std::to_string(::getpid()) + ".gltf"));
 }
 
 TEST(GltfExport, RoundTripGlb) {
-    check_round_trip(fs::temp_directory_path() / ("abrad_gltf_" + std::to_string(::getpid()) + ".glb"));
+    check_round_trip(fs::temp_directory_path() /
+                     ("abrad_gltf_" + std::to_string(::getpid()) + ".glb"));
 }
 
 TEST(GltfExport, RefusesOtherExtensionsAndBadMeshes) {
@@ -122,5 +127,7 @@ TEST(GltfExport, RefusesOtherExtensionsAndBadMeshes) {
     EXPECT_THROW(write_gltf(p, two_surfaces(), survey_mesh(), {}), ExportError);
     visdb::BakeMesh bad = survey_mesh();
     bad.radiosity.pop_back();
-    EXPECT_THROW(write_gltf(fs::temp_directory_path() / "abrad_gltf_bad.gltf", two_surfaces(), bad, {}), ExportError);
+    EXPECT_THROW(
+        write_gltf(fs::temp_directory_path() / "abrad_gltf_bad.gltf", two_surfaces(), bad, {}),
+        ExportError);
 }

@@ -1,6 +1,8 @@
 // Image output through OpenImageIO: sRGB/linear round trips, the false-colour scale and its
 // legend, and the comparison metrics behind `abrad compare`.
 
+#include "abrad/export/image.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,7 +11,6 @@
 #include <string>
 #include <vector>
 
-#include "abrad/export/image.h"
 #include "abrad/export/writers.h"
 
 namespace fs = std::filesystem;
@@ -18,7 +19,8 @@ using namespace abrad::exporter;
 namespace {
 
 fs::path temp_path(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("abrad_image_test_" + std::to_string(::getpid()));
+    const fs::path dir =
+        fs::temp_directory_path() / ("abrad_image_test_" + std::to_string(::getpid()));
     fs::create_directories(dir);
     return dir / name;
 }
@@ -31,7 +33,7 @@ TEST(Image, SrgbEncodeDecodeRoundTrip) {
     for (double v : {0.0, 0.001, 0.0031308, 0.01, 0.18, 0.5, 0.9, 1.0})
         EXPECT_NEAR(srgb_decode(srgb_encode(v)), v, 1e-8) << v;
     EXPECT_NEAR(srgb_encode(0.5), 0.735356983, 1e-8);  // the standard's curve at mid grey
-    EXPECT_NEAR(srgb_encode(2.0), 1.0, 1e-12);          // clamps
+    EXPECT_NEAR(srgb_encode(2.0), 1.0, 1e-12);         // clamps
 }
 
 TEST(Image, ExrKeepsLinearValuesAboveOne) {
@@ -100,7 +102,8 @@ TEST(FalseColour, ImageHasValuesNoDataAndALabelledLegend) {
     const int w = 100, h = 120;
     std::vector<double> values(static_cast<std::size_t>(w * h));
     for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) values[static_cast<std::size_t>(y * w + x)] = 5.0 * x;  // 0..495
+        for (int x = 0; x < w; ++x)
+            values[static_cast<std::size_t>(y * w + x)] = 5.0 * x;  // 0..495
     values[0] = std::nan("");
     const fs::path p = temp_path("false.png");
     write_false_colour_image(p, w, h, values, 0.0, 500.0, "W/m\u00b2");
@@ -135,7 +138,8 @@ TEST(FalseColour, WithoutTheFontTheBitmapFontDrawsTheLabels) {
     int white = 0;
     for (int y = 0; y < h; ++y)
         for (int x = w; x < img.width; ++x)
-            if (img.at(x, y, 0) == 1.0f && img.at(x, y, 1) == 1.0f && img.at(x, y, 2) == 1.0f) ++white;
+            if (img.at(x, y, 0) == 1.0f && img.at(x, y, 1) == 1.0f && img.at(x, y, 2) == 1.0f)
+                ++white;
     EXPECT_GT(white, 100);
     // The "0" at the bottom tick (y = h - 8): its glyph's top row 0x0E lights columns 1..3
     const int text_x = w + 8 + 16 + 6;
@@ -147,8 +151,10 @@ TEST(FalseColour, WithoutTheFontTheBitmapFontDrawsTheLabels) {
 
 TEST(FalseColour, RejectsAnEmptyRangeAndWrongSizes) {
     std::vector<double> values(4, 1.0);
-    EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 2, 2, values, 1.0, 1.0, "lux"), ExportError);
-    EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 3, 2, values, 0.0, 1.0, "lux"), ExportError);
+    EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 2, 2, values, 1.0, 1.0, "lux"),
+                 ExportError);
+    EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 3, 2, values, 0.0, 1.0, "lux"),
+                 ExportError);
     EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 2, 2, values, 0.0,
                                           std::numeric_limits<double>::infinity(), "lux"),
                  ExportError);

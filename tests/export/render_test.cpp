@@ -2,21 +2,21 @@
 // POV-Ray is installed) the POV-Ray exports rendered by POV-Ray against abrad's own render
 // and against the exact direct irradiance.
 
+#include "abrad/export/render.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <glm/geometric.hpp>
 #include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include <glm/geometric.hpp>
-
 #include "abrad/export/image.h"
-#include "abrad/export/render.h"
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/form_factor.h"
 
@@ -45,12 +45,13 @@ void add_quad(visdb::BakeMesh& m, std::uint32_t surface, const glm::dvec3& a, co
     m.triangle_surface.push_back(surface);
 }
 
-// A floor z = -1 from y = -5 (behind the camera) to 18.7 (between two pixel rows) whose radiosity is (y + 5, x + 10, 1), and a
-// wall at y = 5 over x in [-1, 1], z in [-1, 0.5] of value 100.
+// A floor z = -1 from y = -5 (behind the camera) to 18.7 (between two pixel rows) whose radiosity
+// is (y + 5, x + 10, 1), and a wall at y = 5 over x in [-1, 1], z in [-1, 0.5] of value 100.
 visdb::BakeMesh floor_and_wall() {
     visdb::BakeMesh m;
-    add_quad(m, 0, {-10, -5, -1}, {10, -5, -1}, {10, 18.7, -1}, {-10, 18.7, -1},
-             [](const glm::dvec3& p) { return glm::vec3(float(p.y + 5.0), float(p.x + 10.0), 1.0f); });
+    add_quad(
+        m, 0, {-10, -5, -1}, {10, -5, -1}, {10, 18.7, -1}, {-10, 18.7, -1},
+        [](const glm::dvec3& p) { return glm::vec3(float(p.y + 5.0), float(p.x + 10.0), 1.0f); });
     add_quad(m, 1, {-1, 5, -1}, {1, 5, -1}, {1, 5, 0.5}, {-1, 5, 0.5},
              [](const glm::dvec3&) { return glm::vec3(100.0f); });
     return m;
@@ -83,8 +84,9 @@ bool have_povray() {
 // Renders `scene.pov` in `dir` with POV-Ray to `out.exr` (w x h, no antialiasing).
 void povray(const fs::path& dir, int w, int h) {
 #ifdef ABRAD_POVRAY
-    const std::string cmd = "cd '" + dir.string() + "' && " + ABRAD_POVRAY + " +Iscene.pov +Oout.exr +FE +W" +
-                            std::to_string(w) + " +H" + std::to_string(h) +
+    const std::string cmd = "cd '" + dir.string() + "' && " + ABRAD_POVRAY +
+                            " +Iscene.pov +Oout.exr +FE +W" + std::to_string(w) + " +H" +
+                            std::to_string(h) +
                             " -A -D -V +L/usr/share/povray-3.7/include > povray.log 2>&1";
     ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "povray.log");
 #else
@@ -93,7 +95,8 @@ void povray(const fs::path& dir, int w, int h) {
 }
 
 fs::path temp_dir(const std::string& name) {
-    const fs::path d = fs::temp_directory_path() / ("abrad_render_test_" + std::to_string(::getpid())) / name;
+    const fs::path d =
+        fs::temp_directory_path() / ("abrad_render_test_" + std::to_string(::getpid())) / name;
     fs::create_directories(d);
     return d;
 }
@@ -134,14 +137,16 @@ TEST(Render, InterpolatesPerspectiveCorrectlyAndClipsAtTheNearPlane) {
     EXPECT_GT(floor_pixels, 500);
     EXPECT_GT(wall_pixels, 50);
     // Irradiance is the other vertex array
-    const Raster ri = render_bake(m, looking_along_y(), {.width = w, .height = h, .quantity = RenderQuantity::Irradiance});
+    const Raster ri = render_bake(
+        m, looking_along_y(), {.width = w, .height = h, .quantity = RenderQuantity::Irradiance});
     EXPECT_FLOAT_EQ(ri.value[static_cast<std::size_t>(h / 2 * w + w / 2)].r, 200.0f);
 }
 
 TEST(Render, BacksOfFacesAreBlack) {
     visdb::BakeMesh m;
     // The wall of floor_and_wall() wound the other way: the camera sees its back
-    add_quad(m, 0, {-1, 5, -1}, {-1, 5, 0.5}, {1, 5, 0.5}, {1, 5, -1}, [](const glm::dvec3&) { return glm::vec3(100.0f); });
+    add_quad(m, 0, {-1, 5, -1}, {-1, 5, 0.5}, {1, 5, 0.5}, {1, 5, -1},
+             [](const glm::dvec3&) { return glm::vec3(100.0f); });
     const Raster r = render_bake(m, looking_along_y(), {.width = 32, .height = 24});
     const std::size_t centre = 12 * 32 + 16;
     EXPECT_EQ(r.covered[centre], 2);
@@ -166,8 +171,10 @@ namespace {
 // A closed room 6 x 4 x 3 m (faces inward) with a ceiling light.
 visdb::Scene box_room() {
     visdb::Scene s;
-    s.materials = {{.name = "wall"}, {.name = "light", .reflectance = {0, 0, 0}, .emittance = {50, 50, 50}}};
-    auto quad = [&](const std::string& name, std::uint32_t mat, glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d) {
+    s.materials = {{.name = "wall"},
+                   {.name = "light", .reflectance = {0, 0, 0}, .emittance = {50, 50, 50}}};
+    auto quad = [&](const std::string& name, std::uint32_t mat, glm::dvec3 a, glm::dvec3 b,
+                    glm::dvec3 c, glm::dvec3 d) {
         visdb::Surface surf;
         surf.name = name;
         surf.material = mat;
@@ -203,7 +210,7 @@ TEST(Camera, DefaultIsInsideTheLargestRoomLookingAtItsCentre) {
 TEST(Camera, OpenModelsAreSeenFromOutside) {
     visdb::Scene s = box_room();
     s.surfaces.erase(s.surfaces.begin() + 1);  // no ceiling: no room
-    s.surfaces.pop_back();                      // nor the light
+    s.surfaces.pop_back();                     // nor the light
     const visdb::Camera c = default_camera(s);
     EXPECT_NEAR(c.look_at.x, 3.0, 1e-9);
     EXPECT_NEAR(c.look_at.z, 1.5, 1e-9);
@@ -240,14 +247,16 @@ TEST(PovExport, WritesOneMesh2PerSurfaceWithExactVertexColours) {
     scene.surfaces[0].name = "floor";
     scene.surfaces[1].name = "wall";
     const visdb::BakeMesh m = floor_and_wall();
-    write_pov(dir / "scene.pov", scene, m, {.camera = looking_along_y(), .width = 64, .height = 48, .exposure = 0.125});
+    write_pov(dir / "scene.pov", scene, m,
+              {.camera = looking_along_y(), .width = 64, .height = 48, .exposure = 0.125});
     std::ifstream in(dir / "scene.pov");
     std::stringstream ss;
     ss << in.rdbuf();
     const std::string text = ss.str();
     auto count = [&](const std::string& what) {
         std::size_t n = 0;
-        for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+        for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1))
+            ++n;
         return n;
     };
     EXPECT_EQ(count("mesh2 {"), 2u);
@@ -255,7 +264,8 @@ TEST(PovExport, WritesOneMesh2PerSurfaceWithExactVertexColours) {
     EXPECT_NE(text.find("#declare Abrad_Exposure = 0.125;"), std::string::npos);
     EXPECT_NE(text.find("emission Abrad_Exposure"), std::string::npos);
     EXPECT_NE(text.find("// surface 1 'wall'"), std::string::npos);
-    EXPECT_NE(text.find("texture{pigment{rgb<100,100,100>}finish{Abrad_Finish}}"), std::string::npos);
+    EXPECT_NE(text.find("texture{pigment{rgb<100,100,100>}finish{Abrad_Finish}}"),
+              std::string::npos);
     EXPECT_NE(text.find("<0,2,1>,0,2,1"), std::string::npos);  // POV-Ray's front is left-handed
     EXPECT_NE(text.find("interior_texture { Abrad_Back }"), std::string::npos);
     EXPECT_FALSE(fs::exists(dir / "scene.pov.tmp"));
@@ -269,13 +279,16 @@ TEST(PovExport, PovRayRendersTheSameImageAsAbrad) {
     visdb::Scene scene;
     scene.surfaces.resize(2);
     const visdb::BakeMesh m = floor_and_wall();
-    write_pov(dir / "scene.pov", scene, m, {.camera = looking_along_y(), .width = w, .height = h, .exposure = exposure});
+    write_pov(dir / "scene.pov", scene, m,
+              {.camera = looking_along_y(), .width = w, .height = h, .exposure = exposure});
     povray(dir, w, h);
     const Image pov = read_image(dir / "out.exr");
     const Raster r = render_bake(m, looking_along_y(), {.width = w, .height = h});
     Image own{w, h, std::vector<float>(static_cast<std::size_t>(w * h * 3))};
     for (std::size_t i = 0; i < r.value.size(); ++i)
-        for (int c = 0; c < 3; ++c) own.rgb[3 * i + static_cast<std::size_t>(c)] = static_cast<float>(exposure * r.value[i][c]);
+        for (int c = 0; c < 3; ++c)
+            own.rgb[3 * i + static_cast<std::size_t>(c)] =
+                static_cast<float>(exposure * r.value[i][c]);
     const ImageDifference d = compare_images(own, pov);
     write_image(dir / "own.exr", w, h, own.rgb);  // left for a person when the test fails
     // Same data, two rasterizers: only half-float rounding and edge pixels differ
@@ -301,7 +314,8 @@ TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) 
     visdb::Surface light;
     light.name = "light";
     light.material = 1;
-    const std::vector<glm::dvec3> lp = {{-0.5, -0.5, 2}, {-0.5, 0.5, 2}, {0.5, 0.5, 2}, {0.5, -0.5, 2}};
+    const std::vector<glm::dvec3> lp = {
+        {-0.5, -0.5, 2}, {-0.5, 0.5, 2}, {0.5, 0.5, 2}, {0.5, -0.5, 2}};
     light.mesh.positions = lp;
     light.mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
     s.surfaces = {floor, light};
@@ -314,7 +328,8 @@ TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) 
     const int w = 64, h = 48;
     const double exposure = 0.2;
     write_pov_reference(dir / "scene.pov", s,
-                        {.view = {.camera = cam, .width = w, .height = h, .exposure = exposure}, .light_samples = 256});
+                        {.view = {.camera = cam, .width = w, .height = h, .exposure = exposure},
+                         .light_samples = 256});
     povray(dir, w, h);
     const Image img = read_image(dir / "out.exr");
     const CameraFrame f = camera_frame(cam, w, h);
@@ -329,7 +344,8 @@ TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) 
             const double expected = exposure * 0.5 * H;
             const double got = img.at(i, j, 1);
             worst = std::max(worst, std::abs(got - expected) / expected);
-            EXPECT_NEAR(got, expected, 0.01 * expected + 1e-3) << "floor point " << p.x << "," << p.y;
+            EXPECT_NEAR(got, expected, 0.01 * expected + 1e-3)
+                << "floor point " << p.x << "," << p.y;
             ++checked;
         }
     EXPECT_GT(checked, 100);
@@ -345,12 +361,16 @@ TEST(PovReference, RadiosityBouncesAddIndirectLightInAClosedRoom) {
     double mean[2] = {0.0, 0.0};
     for (int bounces = 0; bounces < 2; ++bounces) {
         const fs::path dir = temp_dir("pov_radiosity_" + std::to_string(bounces));
-        write_pov_reference(dir / "scene.pov", s,
-                            {.view = {.camera = default_camera(s), .width = w, .height = h, .exposure = 0.1},
-                             .light_samples = 16, .bounces = bounces * 3, .quality = PovQuality::Low});
+        write_pov_reference(
+            dir / "scene.pov", s,
+            {.view = {.camera = default_camera(s), .width = w, .height = h, .exposure = 0.1},
+             .light_samples = 16,
+             .bounces = bounces * 3,
+             .quality = PovQuality::Low});
         povray(dir, w, h);
         const Image img = read_image(dir / "out.exr");
-        for (float v : img.rgb) mean[bounces] += std::min(static_cast<double>(v), 4.0);  // the light clipped
+        for (float v : img.rgb)
+            mean[bounces] += std::min(static_cast<double>(v), 4.0);  // the light clipped
         mean[bounces] /= static_cast<double>(img.rgb.size());
     }
     EXPECT_GT(mean[1], 1.2 * mean[0]);

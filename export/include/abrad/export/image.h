@@ -6,12 +6,11 @@
 // Pixel buffers are row-major, top row first, RGB interleaved (3 floats per pixel).
 
 #include <filesystem>
+#include <glm/vec3.hpp>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 namespace abrad::exporter {
 
@@ -24,7 +23,9 @@ struct Image {
     /// The value of channel `c` of pixel (x, y); no bounds check beyond the vector's.
     float at(int x, int y, int c) const {
         return rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                    static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(c)];
+                    static_cast<std::size_t>(x)) *
+                       3 +
+                   static_cast<std::size_t>(c)];
     }
 };
 
@@ -70,9 +71,9 @@ void write_false_colour_image(const std::filesystem::path& path, int width, int 
 
 /// How two images differ, in linear light over every pixel and RGB channel.
 struct ImageDifference {
-    double rmse = 0.0;       ///< root mean square of the channel differences
-    double psnr_db = 0.0;    ///< 20 log10(1 / rmse) (peak 1 = white after exposure); inf if equal
-    double max_error = 0.0;  ///< largest absolute channel difference
+    double rmse = 0.0;         ///< root mean square of the channel differences
+    double psnr_db = 0.0;      ///< 20 log10(1 / rmse) (peak 1 = white after exposure); inf if equal
+    double max_error = 0.0;    ///< largest absolute channel difference
     int max_x = 0, max_y = 0;  ///< the pixel of max_error
     double mean_a = 0.0, mean_b = 0.0;  ///< mean channel value of each image
     std::string to_string() const;

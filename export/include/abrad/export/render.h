@@ -5,11 +5,10 @@
 // with the same camera, the POV-Ray `pov` export and render_bake() agree to rounding.
 
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <stdexcept>
 #include <string_view>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "abrad/visdb/model.h"
 
@@ -17,7 +16,7 @@ namespace abrad::exporter {
 
 /// A camera name that the scene does not hold (bad input); what() lists the cameras it has.
 class CameraError : public std::invalid_argument {
-public:
+  public:
     using std::invalid_argument::invalid_argument;
 };
 
@@ -72,13 +71,13 @@ struct RenderOptions {
 struct Raster {
     int width = 0;
     int height = 0;
-    std::vector<glm::vec3> value;      ///< row-major, top row first
+    std::vector<glm::vec3> value;       ///< row-major, top row first
     std::vector<std::uint8_t> covered;  ///< 0 nothing, 1 front face, 2 back face
 };
 
 /// Rasterizes `mesh` through `camera`: both faces of every triangle are drawn (backs black),
-/// the nearest wins (Z-buffer on view depth), values are interpolated perspective-correctly between the
-/// triangle's vertices, pixels sampled at their centres (no antialiasing). Triangles are
+/// the nearest wins (Z-buffer on view depth), values are interpolated perspective-correctly between
+/// the triangle's vertices, pixels sampled at their centres (no antialiasing). Triangles are
 /// clipped at `options.near`. Throws ExportError on an inconsistent mesh, CameraError on a
 /// degenerate camera, std::invalid_argument on a non-positive size.
 Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
