@@ -549,6 +549,13 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
     const double east = m * 0.72 * c * c / (M_PI * r2);  // point-source estimate, 7 m away
     EXPECT_LT(e.x, own + 1.05 * east);
     EXPECT_NEAR(e.x, e.y, 1e-4 * e.x);  // white panels (the warm hall panel is all but hidden)
+
+    // A photometric bake's false-colour image is in lux, through the scene file's camera
+    const Result fc = run("render --db " + db + " --false-colour --width 80 --height 60 --output " +
+                          path("lux.png").string());
+    ASSERT_EQ(fc.status, 0) << fc.output;
+    EXPECT_NE(fc.output.find(" lux, camera '" + scene.cameras[0].name + "'"), std::string::npos) << fc.output;
+    EXPECT_TRUE(fs::exists(path("lux.png")));
 }
 
 // ezdxf's 3dface.dxf (millimetres, layer 0, faces facing down) over the dxf_plan scene
