@@ -264,16 +264,21 @@ void write_false_colour_image(const fs::path& path, int width, int height,
         labels[static_cast<std::size_t>(k)] = tick_label(vmin + (vmax - vmin) * k / (kTicks - 1));
         longest = std::max(longest, labels[static_cast<std::size_t>(k)].size());
     }
-    const int scale = height >= 360 ? 2 : 1;
-    const int bar_x = width + 8 * scale, bar_w = 16 * scale;
+    // Small images (calculation grids) are enlarged by a whole factor, each value a block of
+    // pixels, so that the legend fits
+    constexpr int kMinHeight = 160;
+    const int block = height < kMinHeight ? (kMinHeight + height - 1) / height : 1;
+    const int out_w = width * block, out_h = height * block;
+    const int scale = out_h >= 360 ? 2 : 1;
+    const int bar_x = out_w + 8 * scale, bar_w = 16 * scale;
     const int legend_w =
         8 * scale + bar_w + 6 * scale + static_cast<int>(longest) * 6 * scale + 8 * scale;
-    const int total_w = width + std::max(legend_w, 90);
-    const int bar_top = 20 * scale, bar_bottom = height - 8 * scale;
+    const int total_w = out_w + std::max(legend_w, 90);
+    const int bar_top = 20 * scale, bar_bottom = out_h - 8 * scale;
 
-    Image img{total_w, height,
+    Image img{total_w, out_h,
               std::vector<float>(
-                  static_cast<std::size_t>(total_w) * static_cast<std::size_t>(height) * 3, 0.0f)};
+                  static_cast<std::size_t>(total_w) * static_cast<std::size_t>(out_h) * 3, 0.0f)};
     auto set = [&](int x, int y, const glm::vec3& c) {
         const std::size_t o = (static_cast<std::size_t>(y) * static_cast<std::size_t>(total_w) +
                                static_cast<std::size_t>(x)) *
@@ -282,10 +287,11 @@ void write_false_colour_image(const fs::path& path, int width, int height,
     };
     // Map the values; no data is dark grey
     const glm::vec3 no_data(0.02f);
-    for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-            const double v = values[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                                    static_cast<std::size_t>(x)];
+    for (int y = 0; y < out_h; ++y)
+        for (int x = 0; x < out_w; ++x) {
+            const double v =
+                values[static_cast<std::size_t>(y / block) * static_cast<std::size_t>(width) +
+                       static_cast<std::size_t>(x / block)];
             set(x, y, std::isnan(v) ? no_data : false_colour((v - vmin) / (vmax - vmin)));
         }
     // Draw the legend bar, vmax at the top
@@ -303,7 +309,7 @@ void write_false_colour_image(const fs::path& path, int width, int height,
             bar_bottom - (bar_bottom - bar_top) * k / (kTicks - 1);
         for (int x = bar_x + bar_w; x < bar_x + bar_w + 4 * scale && x < total_w; ++x)
             if (tick_y[static_cast<std::size_t>(k)] >= 0 &&
-                tick_y[static_cast<std::size_t>(k)] < height)
+                tick_y[static_cast<std::size_t>(k)] < out_h)
                 set(x, tick_y[static_cast<std::size_t>(k)], glm::vec3(1.0f));
     }
     const int text_x = bar_x + bar_w + 6 * scale;
@@ -322,7 +328,7 @@ void write_false_colour_image(const fs::path& path, int width, int height,
                 buf, text_x, tick_y[static_cast<std::size_t>(k)] + 4 * scale,
                 labels[static_cast<std::size_t>(k)], size, font_name, white);
         if (ok) {
-            buf.get_pixels(OIIO::ROI(0, total_w, 0, height, 0, 1, 0, 3), TypeDesc::FLOAT,
+            buf.get_pixels(OIIO::ROI(0, total_w, 0, out_h, 0, 1, 0, 3), TypeDesc::FLOAT,
                            img.rgb.data());
             drawn = true;
         }
@@ -333,7 +339,7 @@ void write_false_colour_image(const fs::path& path, int width, int height,
             draw_bitmap_text(img, text_x, tick_y[static_cast<std::size_t>(k)] - 3 * scale,
                              labels[static_cast<std::size_t>(k)], scale);
     }
-    write_image(path, total_w, height, img.rgb);
+    write_image(path, total_w, out_h, img.rgb);
 }
 
 std::string ImageDifference::to_string() const {

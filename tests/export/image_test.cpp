@@ -99,7 +99,7 @@ TEST(FalseColour, LightnessRisesMonotonically) {
 }
 
 TEST(FalseColour, ImageHasValuesNoDataAndALabelledLegend) {
-    const int w = 100, h = 120;
+    const int w = 100, h = 160;
     std::vector<double> values(static_cast<std::size_t>(w * h));
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
@@ -129,7 +129,7 @@ TEST(FalseColour, ImageHasValuesNoDataAndALabelledLegend) {
 }
 
 TEST(FalseColour, WithoutTheFontTheBitmapFontDrawsTheLabels) {
-    const int w = 40, h = 100;
+    const int w = 40, h = 200;
     std::vector<double> values(static_cast<std::size_t>(w * h), 3.0);
     const fs::path p = temp_path("bitmap.png");
     write_false_colour_image(p, w, h, values, 0.0, 1000.0, "lux", temp_path("no-such-font.ttf"));
@@ -147,6 +147,24 @@ TEST(FalseColour, WithoutTheFontTheBitmapFontDrawsTheLabels) {
     EXPECT_EQ(img.at(text_x + 1, h - 8 - 3, 0), 1.0f);
     EXPECT_EQ(img.at(text_x + 3, h - 8 - 3, 0), 1.0f);
     EXPECT_EQ(img.at(text_x + 4, h - 8 - 3, 0), 0.0f);
+}
+
+TEST(FalseColour, SmallGridsAreEnlargedInBlocks) {
+    // A 4 x 3 calculation grid: enlarged 54 times to 216 x 162 pixels, each value a block
+    const std::vector<double> values = {0,   100, 200, 300, 400,  500,
+                                        600, 700, 800, 900, 1000, std::nan("")};
+    const fs::path p = temp_path("grid.png");
+    write_false_colour_image(p, 4, 3, values, 0.0, 1000.0, "lux");
+    const Image img = read_image(p);
+    EXPECT_EQ(img.height, 162);
+    EXPECT_GE(img.width, 216 + 90);
+    for (int k = 0; k < 11; ++k) {
+        const glm::vec3 c = false_colour(k / 10.0);
+        const int x0 = (k % 4) * 54, y0 = (k / 4) * 54;
+        for (const auto& [dx, dy] : {std::pair{0, 0}, std::pair{53, 53}, std::pair{27, 10}})
+            EXPECT_NEAR(img.at(x0 + dx, y0 + dy, 1), c.g, 0.01) << "value " << k;
+    }
+    EXPECT_NEAR(img.at(3 * 54 + 30, 2 * 54 + 30, 1), 0.02, 0.005);  // no data
 }
 
 TEST(FalseColour, RejectsAnEmptyRangeAndWrongSizes) {
