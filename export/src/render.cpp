@@ -235,10 +235,13 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
                          xmax = std::max({s[0].x, s[1].x, s[2].x});
             const double ymin = std::min({s[0].y, s[1].y, s[2].y}),
                          ymax = std::max({s[0].y, s[1].y, s[2].y});
-            const int x0 = std::max(0, static_cast<int>(std::ceil(xmin - 0.5)));
-            const int x1 = std::min(w - 1, static_cast<int>(std::floor(xmax - 0.5)));
-            const int y0 = std::max(0, static_cast<int>(std::ceil(ymin - 0.5)));
-            const int y1 = std::min(h - 1, static_cast<int>(std::floor(ymax - 0.5)));
+            // Pixel range, clamped in double first: a vertex just past the near plane projects
+            // far outside any int
+            if (!(xmax >= 0.0 && ymax >= 0.0 && xmin <= W && ymin <= H)) continue;
+            const int x0 = static_cast<int>(std::ceil(std::max(xmin - 0.5, 0.0)));
+            const int x1 = static_cast<int>(std::floor(std::min(xmax - 0.5, W - 1.0)));
+            const int y0 = static_cast<int>(std::ceil(std::max(ymin - 0.5, 0.0)));
+            const int y1 = static_cast<int>(std::floor(std::min(ymax - 0.5, H - 1.0)));
             for (int y = y0; y <= y1; ++y) {
                 const double py = y + 0.5;
                 for (int x = x0; x <= x1; ++x) {

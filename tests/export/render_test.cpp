@@ -142,6 +142,19 @@ TEST(Render, InterpolatesPerspectiveCorrectlyAndClipsAtTheNearPlane) {
     EXPECT_FLOAT_EQ(ri.value[static_cast<std::size_t>(h / 2 * w + w / 2)].r, 200.0f);
 }
 
+TEST(Render, TrianglesGrazingTheNearPlaneProjectFarOutside) {
+    // A huge floor at survey scale through the near plane: projected coordinates beyond any
+    // int must clamp (UBSan checks the conversions), and the visible part is still drawn
+    visdb::BakeMesh m;
+    add_quad(m, 0, {-1e7, -1e7, -1}, {1e7, -1e7, -1}, {1e7, 1e7, -1}, {-1e7, 1e7, -1},
+             [](const glm::dvec3&) { return glm::vec3(2.0f); });
+    visdb::Camera c = looking_along_y();
+    const Raster r = render_bake(m, c, {.width = 32, .height = 24, .near = 1e-9});
+    EXPECT_EQ(r.covered[23 * 32 + 16], 1);
+    EXPECT_FLOAT_EQ(r.value[23 * 32 + 16].r, 2.0f);
+    EXPECT_EQ(r.covered[0], 0);
+}
+
 TEST(Render, BacksOfFacesAreBlack) {
     visdb::BakeMesh m;
     // The wall of floor_and_wall() wound the other way: the camera sees its back
@@ -296,7 +309,9 @@ TEST(PovExport, PovRayRendersTheSameImageAsAbrad) {
     int close = 0;
     for (std::size_t i = 0; i < own.rgb.size(); ++i)
         if (std::abs(own.rgb[i] - pov.rgb[i]) <= 2e-3f * std::max(1.0f, own.rgb[i])) ++close;
-    EXPECT_GT(close, static_cast<int>(0.99 * static_cast<double>(own.rgb.size()))) << d.to_string();
+    EXPECT_GT(close, static_cast<int>(0.99 * static_cast<double>(own.rgb.size())))
+        << d.to_string() << "; images in " << dir;
+    if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
 TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) {
@@ -350,6 +365,7 @@ TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) 
         }
     EXPECT_GT(checked, 100);
     RecordProperty("worst_relative_error", std::to_string(worst));
+    if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
 TEST(PovReference, RadiosityBouncesAddIndirectLightInAClosedRoom) {
@@ -373,6 +389,10 @@ TEST(PovReference, RadiosityBouncesAddIndirectLightInAClosedRoom) {
             mean[bounces] += std::min(static_cast<double>(v), 4.0);  // the light clipped
         mean[bounces] /= static_cast<double>(img.rgb.size());
     }
-    EXPECT_GT(mean[1], 1.2 * mean[0]);
-    EXPECT_LT(mean[1], 2.0 * mean[0]);
+    EXPECT_GT(mean[1], 1.2 * mean[0]) << "images in " << temp_dir("");
+    EXPECT_LT(mean[1], 2.0 * mean[0]) << "images in " << temp_dir("");
+    if (!::testing::Test::HasFailure()) {
+        fs::remove_all(temp_dir("pov_radiosity_0"));
+        fs::remove_all(temp_dir("pov_radiosity_1"));
+    }
 }
