@@ -124,7 +124,7 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
             mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
             mat.pbrMetallicRoughness.metallicFactor = 0.0;
             mat.pbrMetallicRoughness.roughnessFactor = 1.0;
-            mat.doubleSided = true;
+            mat.doubleSided = false;  // a bake shades fronts only: viewers cull the backs
             mat.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object());
             model.materials.push_back(mat);
             it = material_index.emplace(m, static_cast<int>(model.materials.size() - 1)).first;

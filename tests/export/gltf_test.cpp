@@ -73,6 +73,7 @@ void check_round_trip(const fs::path& path) {
     EXPECT_EQ(model.extensionsUsed[0], "KHR_materials_unlit");
     ASSERT_EQ(model.materials.size(), 2u);
     EXPECT_TRUE(model.materials[0].extensions.count("KHR_materials_unlit"));
+    EXPECT_FALSE(model.materials[0].doubleSided);
 
     // The root node carries the origin (Y up); children the surfaces
     const tinygltf::Node& root = model.nodes[static_cast<std::size_t>(model.scenes[0].nodes[0])];

@@ -115,7 +115,8 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
 /// relative to the root node's translation, the mesh's rounded centre), NORMAL, COLOR_0 (the
 /// tone-mapped radiosity 1 - exp(-exposure B), linear float RGB as glTF requires) and the
 /// application attributes _IRRADIANCE and _RADIOSITY (float RGB, W/m² or lux); materials
-/// are `KHR_materials_unlit` with base colour white, so viewers show the bake as is. Y up as
+/// are `KHR_materials_unlit` with base colour white and single-sided (a bake shades fronts
+/// only), so viewers show the bake as is. Y up as
 /// glTF requires: abrad's (x, y, z) is written as (x, z, -y). Throws ExportError naming
 /// `path` on an inconsistent mesh or a write failure.
 void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
