@@ -212,6 +212,7 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
     }
     out += "}\n";
 
+    out += "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 } }\n";
     // One texture per material
     for (std::size_t m = 0; m < scene.materials.size(); ++m) {
         const visdb::Material& mat = scene.materials[m];
@@ -261,15 +262,20 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
                 t.z >= s.mesh.positions.size())
                 detail::fail(path,
                              "surface " + std::to_string(si) + ": triangle index out of range");
-            out += ",\n    <" + std::to_string(t.x) + "," + std::to_string(t.y) + "," +
-                   std::to_string(t.z) + ">";
+            // Reversed: POV-Ray's front is left-handed (only the emitters' interior_texture
+            // cares; diffuse shading is two-sided)
+            out += ",\n    <" + std::to_string(t.x) + "," + std::to_string(t.z) + "," +
+                   std::to_string(t.y) + ">";
             if (emitter) {
                 emitting_area +=
                     0.5 * glm::length(glm::cross(s.mesh.positions[t.y] - s.mesh.positions[t.x],
                                                  s.mesh.positions[t.z] - s.mesh.positions[t.x]));
             }
         }
-        out += " }\n  texture { Abrad_M" + std::to_string(s.material) + " }\n  translate ";
+        out += " }\n  texture { Abrad_M" + std::to_string(s.material) + " }\n";
+        // Emitters emit from their front only: their backs are black, as in the bake
+        if (emitter) out += "  interior_texture { Abrad_Back }\n";
+        out += "  translate ";
         append_vector(out, origin);
         out += emitter ? "\n  no_shadow\n  no_radiosity\n}\n" : "\n}\n";
         file.write_if_full(out);

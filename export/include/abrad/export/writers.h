@@ -99,7 +99,8 @@ struct PovReferenceOptions {
 
 /// Writes the scene lit by POV-Ray itself (the reference renderer's view of the same model):
 /// each surface a `mesh2` with `pigment { rgb ρ transmit 1-α } finish { ambient 0 diffuse 1 }`;
-/// each emitter drawn with its emittance E as emission (`no_shadow`, `no_radiosity`) and
+/// each emitter drawn with its emittance E as emission on its front (its back black, as in the
+/// `pov` export; `no_shadow`, `no_radiosity`) and
 /// sampled by point lights: every emitter triangle is cut into k² equal sub-triangles, each a
 /// `spotlight` at its centroid (1 mm in front) pointing along the normal with `tightness 1`
 /// (intensity ∝ cos θ, a Lambertian emitter's falloff), `fade_power 2` and a `fade_distance`
