@@ -109,6 +109,7 @@ void check_round_trip(const fs::path& path) {
     EXPECT_EQ(idx[0], 0u);
     EXPECT_EQ(idx[1], 1u);
     EXPECT_EQ(idx[2], 2u);
+    if (!::testing::Test::HasFailure()) fs::remove(path);
 }
 
 }  // namespace

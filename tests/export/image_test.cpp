@@ -25,6 +25,16 @@ fs::path temp_path(const std::string& name) {
     return dir / name;
 }
 
+// Removes the test folder when every test passed (a failure leaves the images to look at).
+class TempFolder : public ::testing::Environment {
+  public:
+    void TearDown() override {
+        if (!::testing::UnitTest::GetInstance()->Failed())
+            fs::remove_all(temp_path("x").parent_path());
+    }
+};
+const auto* const kTempFolder = ::testing::AddGlobalTestEnvironment(new TempFolder);
+
 double luminance(const glm::vec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
 
 }  // namespace

@@ -101,6 +101,17 @@ fs::path temp_dir(const std::string& name) {
     return d;
 }
 
+// Removes the test folder when every test passed (a failure leaves the images to look at).
+class TempFolder : public ::testing::Environment {
+  public:
+    void TearDown() override {
+        if (!::testing::UnitTest::GetInstance()->Failed())
+            fs::remove_all(fs::temp_directory_path() /
+                           ("abrad_render_test_" + std::to_string(::getpid())));
+    }
+};
+const auto* const kTempFolder = ::testing::AddGlobalTestEnvironment(new TempFolder);
+
 }  // namespace
 
 TEST(Render, InterpolatesPerspectiveCorrectlyAndClipsAtTheNearPlane) {
@@ -282,6 +293,7 @@ TEST(PovExport, WritesOneMesh2PerSurfaceWithExactVertexColours) {
     EXPECT_NE(text.find("<0,2,1>,0,2,1"), std::string::npos);  // POV-Ray's front is left-handed
     EXPECT_NE(text.find("interior_texture { Abrad_Back }"), std::string::npos);
     EXPECT_FALSE(fs::exists(dir / "scene.pov.tmp"));
+    if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
 TEST(PovExport, PovRayRendersTheSameImageAsAbrad) {
