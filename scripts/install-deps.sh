@@ -3,8 +3,9 @@
 # Skips apt entirely when everything is already present, so repeated runs are fast.
 set -euo pipefail
 packages=(cmake g++ make ccache pkg-config libsqlite3-dev libglm-dev libgtest-dev libgmock-dev
-          libcli11-dev libtbb-dev libcgal-dev libassimp-dev libtomlplusplus-dev libbenchmark-dev
-          gnuplot-nox)
+          libcli11-dev libtbb-dev libcgal-dev libassimp-dev libtomlplusplus-dev libbenchmark-dev gnuplot-nox
+          libopenimageio-dev openimageio-tools libtinygltf-dev nlohmann-json3-dev fonts-dejavu-core
+          povray povray-includes)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -1,5 +1,5 @@
-// abrad: the command line. Subcommands import, bake, export, info, probe, field-error, run,
-// generate, bench.
+// abrad: the command line. Subcommands import, bake, export, render, compare, info, probe,
+// field-error, run, generate, bench.
 //
 // Exit status: 0 success; 1 failure (I/O, internal); 2 bad input or usage (a malformed model,
 // an unknown option, a scene that cannot be baked). Errors go to stderr as
@@ -29,6 +29,8 @@
 
 #include "abrad/convert/import.h"
 #include "abrad/convert/scene_file.h"
+#include "abrad/export/image.h"
+#include "abrad/export/render.h"
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
@@ -497,19 +499,213 @@ radiosity::DirectField direct_field_of(const std::string& db, const visdb::Scene
     }
 }
 
+// Options of the image-making exports and of render.
+struct ViewArgs {
+    std::string camera;         ///< empty: the scene's first camera, else the default camera
+    int width = 640;
+    int height = 480;
+    std::optional<double> exposure;  ///< empty: auto_tone_map of the bake
+    int light_samples = 256;
+    int reference_bounces = 0;
+    std::string quality = "medium";
+};
+
+void add_view_options(CLI::App& app, ViewArgs& v) {
+    app.add_option("--camera", v.camera, "Camera name from the scene file or model (default: the "
+                                         "first one; 'default' or none: inside the largest room "
+                                         "looking at its centre)");
+    app.add_option("--width", v.width, "Image width in pixels")->capture_default_str()->check(CLI::Range(1, 16384));
+    app.add_option("--height", v.height, "Image height in pixels")->capture_default_str()->check(CLI::Range(1, 16384));
+    app.add_option("--exposure", v.exposure, "Exposure k per W/m2 (or lm/m2): image value k*B, "
+                                             "display 1-exp(-k*B) (default: the bake's, 95th "
+                                             "percentile radiosity luminance -> 0.8)")
+        ->check(CLI::PositiveNumber);
+}
+
+visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v) {
+    try {
+        const visdb::Camera c = exporter::select_camera(scene, v.camera);
+        (void)exporter::camera_frame(c, v.width, v.height);  // a degenerate camera is bad input
+        return c;
+    } catch (const std::invalid_argument& e) {
+        bad_input(e.what());
+    }
+}
+
 void export_bake(const std::string& db, const std::string& bake_name, const std::string& format,
-                 const std::string& output, bool ascii) {
+                 const std::string& output, bool ascii, const ViewArgs& view = {}) {
     visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    const visdb::Scene scene = store.load_scene();
+    if (format == "pov-reference") {
+        // The reference needs the scene only; the bake (when there is one) sets the exposure
+        const auto bakes = store.list_bakes();
+        double exposure = view.exposure.value_or(1.0);
+        std::string from = "given";
+        if (!view.exposure) {
+            if (bakes.empty()) bad_input(db + ": no bake to take the exposure from (give --exposure)");
+            exposure = exporter::auto_tone_map(load_bake_for(store, db, bake_name, "export").mesh).exposure;
+            from = "of the bake";
+        }
+        exporter::PovReferenceOptions o;
+        o.view = {.camera = camera_for(scene, view), .width = view.width, .height = view.height, .exposure = exposure};
+        o.light_samples = view.light_samples;
+        o.bounces = view.reference_bounces;
+        o.quality = view.quality == "low" ? exporter::PovQuality::Low
+                    : view.quality == "high" ? exporter::PovQuality::High : exporter::PovQuality::Medium;
+        exporter::write_pov_reference(output, scene, o);
+        std::cout << "wrote " << output << " (pov-reference, camera '" << o.view.camera.name << "', "
+                  << (o.bounces ? std::to_string(o.bounces) + " POV-Ray radiosity bounces" : std::string("direct light only"))
+                  << ", exposure " << exposure << " " << from << ")\n";
+        return;
+    }
     const visdb::Bake b = load_bake_for(store, db, bake_name, "export");
-    const exporter::ToneMap tone = exporter::auto_tone_map(b.mesh);
+    const exporter::ToneMap tone = view.exposure ? exporter::ToneMap{.exposure = *view.exposure}
+                                                 : exporter::auto_tone_map(b.mesh);
     if (format == "ply") {
         exporter::write_ply(output, b.mesh, tone, {.ascii = ascii, .comment = "abrad bake " + b.name});
+    } else if (format == "obj") {
+        exporter::write_obj(output, scene, b.mesh, tone);
+    } else if (format == "gltf") {
+        exporter::write_gltf(output, scene, b.mesh, tone);
     } else {
-        exporter::write_obj(output, store.load_scene(), b.mesh, tone);
+        const exporter::PovView v{.camera = camera_for(scene, view), .width = view.width,
+                                  .height = view.height, .exposure = tone.exposure};
+        exporter::write_pov(output, scene, b.mesh, v);
+        std::cout << "camera '" << v.camera.name << "'\n";
     }
     std::cout << "wrote " << output << " (" << format << ", bake '" << b.name << "', "
               << b.mesh.positions.size() << " vertices, " << b.mesh.triangles.size()
               << " triangles, exposure " << tone.exposure << " per " << b.unit << ")\n";
+}
+
+// abrad's own image of a bake: Gouraud-rasterized radiosity (EXR: exposure x B, linear; PNG:
+// the tone curve 1 - exp(-exposure B), sRGB), or false-colour irradiance with a legend.
+void render_image(const std::string& db, const std::string& bake_name, const std::string& output,
+                  const ViewArgs& view, bool false_colour, std::optional<double> vmin,
+                  std::optional<double> vmax) {
+    std::string ext = fs::path(output).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".png" && ext != ".exr" && ext != ".hdr" && ext != ".jpg" && ext != ".jpeg" && ext != ".tif" &&
+        ext != ".tiff")
+        bad_input(output + ": unknown image type '" + ext + "' (png, exr, hdr, jpg, tif)");
+    visdb::Store store = visdb::Store::open(db, visdb::OpenMode::ReadWrite);
+    const visdb::Bake b = load_bake_for(store, db, bake_name, "render");
+    const visdb::Scene scene = store.load_scene();
+    const visdb::Camera camera = camera_for(scene, view);
+    const exporter::ToneMap tone = view.exposure ? exporter::ToneMap{.exposure = *view.exposure}
+                                                 : exporter::auto_tone_map(b.mesh);
+    const auto t0 = std::chrono::steady_clock::now();
+    const exporter::Raster r = exporter::render_bake(
+        b.mesh, camera,
+        {.width = view.width, .height = view.height,
+         .quantity = false_colour ? exporter::RenderQuantity::Irradiance : exporter::RenderQuantity::Radiosity});
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (false_colour) {
+        // Irradiance luminance, no data where nothing was hit
+        std::vector<double> values(r.value.size());
+        double hi = 0.0;
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            const glm::vec3& h = r.value[i];
+            const double y = 0.2126 * h.r + 0.7152 * h.g + 0.0722 * h.b;
+            values[i] = r.covered[i] == 1 ? y : std::nan("");  // backs of faces: no data
+            if (r.covered[i] == 1 && std::isfinite(y)) hi = std::max(hi, y);
+        }
+        const double lo_v = vmin.value_or(0.0), hi_v = vmax.value_or(hi > lo_v ? hi : lo_v + 1.0);
+        if (!(hi_v > lo_v)) bad_input("--vmax (" + std::to_string(hi_v) + ") must exceed --vmin (" + std::to_string(lo_v) + ")");
+        const std::string unit = b.unit == "lux" ? "lux" : "W/m\u00b2";
+        exporter::write_false_colour_image(output, r.width, r.height, values, lo_v, hi_v, unit);
+        std::cout << "wrote " << output << " (false-colour irradiance, " << lo_v << " .. " << hi_v << " "
+                  << (b.unit == "lux" ? "lux" : "W/m2") << ", camera '" << camera.name << "', "
+                  << r.width << "x" << r.height << ", " << seconds << " s)\n";
+        return;
+    }
+    const bool linear = ext == ".exr" || ext == ".hdr";
+    std::vector<float> rgb(r.value.size() * 3);
+    for (std::size_t i = 0; i < r.value.size(); ++i)
+        for (int c = 0; c < 3; ++c) {
+            const double v = static_cast<double>(r.value[i][c]);
+            rgb[3 * i + static_cast<std::size_t>(c)] =
+                static_cast<float>(linear ? tone.exposure * v : exporter::tone_value(v, tone));
+        }
+    exporter::write_image(output, r.width, r.height, rgb);
+    std::cout << "wrote " << output << " (bake '" << b.name << "', camera '" << camera.name << "', "
+              << r.width << "x" << r.height << ", exposure " << tone.exposure << " per " << b.unit
+              << (linear ? ", linear" : ", tone-mapped sRGB") << ", " << seconds << " s)\n";
+}
+
+struct CompareArgs {
+    std::string a, b;
+    std::string diff;
+    std::string side_by_side;
+    double diff_gain = 4.0;
+    std::optional<double> max_rmse, min_psnr, max_error;
+    std::optional<double> clip;
+};
+
+// `abrad compare`: metrics in linear light, a difference image, exit 1 past a threshold.
+int compare_images(const CompareArgs& c) {
+    exporter::Image a, b;
+    try {
+        a = exporter::read_image(c.a);
+        b = exporter::read_image(c.b);
+    } catch (const exporter::ExportError& e) {
+        bad_input(e.what());
+    }
+    if (a.width != b.width || a.height != b.height)
+        bad_input(c.b + ": image is " + std::to_string(b.width) + "x" + std::to_string(b.height) + ", " +
+                  c.a + " is " + std::to_string(a.width) + "x" + std::to_string(a.height));
+    if (c.clip) {
+        // Emitters are tens of times brighter than what they light: clipped, their edge pixels
+        // no longer swamp the metrics of the lit scene
+        for (auto* img : {&a, &b})
+            for (float& v : img->rgb) v = std::clamp(v, 0.0f, static_cast<float>(*c.clip));
+    }
+    const exporter::ImageDifference d = exporter::compare_images(a, b);
+    std::printf("a: %s\nb: %s\nsize: %dx%d\nrmse: %.6g\npsnr_db: %.4g\nmax_error: %.6g\n"
+                "max_error_pixel: %d,%d\nmean_a: %.6g\nmean_b: %.6g\n",
+                c.a.c_str(), c.b.c_str(), a.width, a.height, d.rmse, d.psnr_db, d.max_error, d.max_x,
+                d.max_y, d.mean_a, d.mean_b);
+    if (!c.diff.empty()) {
+        const exporter::Image diff = exporter::difference_image(a, b, c.diff_gain);
+        exporter::write_image(c.diff, diff.width, diff.height, diff.rgb);
+        std::printf("diff: %s (|a - b| x %g)\n", c.diff.c_str(), c.diff_gain);
+    }
+    if (!c.side_by_side.empty()) {
+        // A | B | gain x |A - B|, each through the tone curve 1 - exp(-v)
+        const exporter::Image diff = exporter::difference_image(a, b, c.diff_gain);
+        const int w = a.width, h = a.height;
+        std::vector<float> rgb(static_cast<std::size_t>(3 * w) * static_cast<std::size_t>(h) * 3);
+        const exporter::Image* parts[3] = {&a, &b, &diff};
+        for (int p = 0; p < 3; ++p)
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int k = 0; k < 3; ++k)
+                        rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(3 * w) +
+                             static_cast<std::size_t>(p * w + x)) * 3 + static_cast<std::size_t>(k)] =
+                            static_cast<float>(exporter::tone_value(static_cast<double>(parts[p]->at(x, y, k)),
+                                                                    exporter::ToneMap{.exposure = 1.0}));
+        exporter::write_image(c.side_by_side, 3 * w, h, rgb);
+        std::printf("side_by_side: %s (a | b | |a - b| x %g, display 1 - exp(-v))\n", c.side_by_side.c_str(), c.diff_gain);
+    }
+    std::vector<std::string> failed;
+    auto fmt = [](double v) {
+        std::ostringstream s;
+        s << v;
+        return s.str();
+    };
+    if (c.max_rmse && !(d.rmse <= *c.max_rmse)) failed.push_back("rmse " + fmt(d.rmse) + " > " + fmt(*c.max_rmse));
+    if (c.min_psnr && !(d.psnr_db >= *c.min_psnr)) failed.push_back("psnr " + fmt(d.psnr_db) + " dB < " + fmt(*c.min_psnr) + " dB");
+    if (c.max_error && !(d.max_error <= *c.max_error)) failed.push_back("max error " + fmt(d.max_error) + " > " + fmt(*c.max_error));
+    if (failed.empty()) {
+        std::printf("result: pass\n");
+        return kExitOk;
+    }
+    std::string msg;
+    for (const auto& f : failed) msg += (msg.empty() ? "" : "; ") + f;
+    std::printf("result: fail\n");
+    std::fflush(stdout);
+    std::cerr << "abrad compare: " << c.a << " vs " << c.b << ": " << msg << "\n";
+    return kExitFailure;
 }
 
 void print_info(const std::string& db) {
@@ -831,12 +1027,56 @@ int run_cli(int argc, char** argv) {
 
     std::string format, output, bake_name;
     bool ascii = false;
-    auto* export_cmd = app.add_subcommand("export", "Export a bake as shaded PLY or OBJ");
+    ViewArgs view;
+    auto* export_cmd = app.add_subcommand("export", "Export a bake as shaded PLY, OBJ, glTF or a "
+                                                    "POV-Ray scene, or the model as a POV-Ray reference scene");
     export_cmd->add_option("--db", db, "Visual database")->required();
-    export_cmd->add_option("--format", format, "ply or obj")->required()->check(CLI::IsMember({"ply", "obj"}));
+    export_cmd->add_option("--format", format, "ply, obj, gltf (.gltf or .glb), pov (the bake, unlit) "
+                                               "or pov-reference (the model lit by POV-Ray)")
+        ->required()->check(CLI::IsMember({"ply", "obj", "gltf", "pov", "pov-reference"}));
     export_cmd->add_option("--output", output, "Output path")->required();
     export_cmd->add_option("--bake", bake_name, "Bake name (default: the latest)");
     export_cmd->add_flag("--ascii", ascii, "PLY as ASCII instead of binary little endian");
+    add_view_options(*export_cmd, view);
+    export_cmd->add_option("--light-samples", view.light_samples,
+                           "pov-reference: point lights sampling the emitters (cos-weighted spotlights)")
+        ->capture_default_str()->check(CLI::Range(1, 1000000));
+    export_cmd->add_option("--reference-bounces", view.reference_bounces,
+                           "pov-reference: POV-Ray radiosity bounces (0 = off, direct light only)")
+        ->capture_default_str()->check(CLI::Range(0, 20));
+    export_cmd->add_option("--quality", view.quality, "pov-reference: POV-Ray radiosity quality")
+        ->capture_default_str()->check(CLI::IsMember({"low", "medium", "high"}));
+
+    bool false_colour = false;
+    std::optional<double> vmin, vmax;
+    auto* render_cmd = app.add_subcommand("render", "Render a bake with abrad's Gouraud rasterizer "
+                                                    "(PNG tone-mapped, EXR linear), or false-colour irradiance");
+    render_cmd->add_option("--db", db, "Visual database")->required();
+    render_cmd->add_option("--bake", bake_name, "Bake name (default: the latest)");
+    render_cmd->add_option("--output", output, "Image path: .png (sRGB, tone-mapped) or .exr (linear, "
+                                               "exposure x radiosity)")->required();
+    add_view_options(*render_cmd, view);
+    render_cmd->add_flag("--false-colour", false_colour, "Irradiance luminance in false colour with a "
+                                                         "legend (W/m2 or lux) instead of radiosity");
+    render_cmd->add_option("--vmin", vmin, "False colour: value at the bottom of the scale (default 0)");
+    render_cmd->add_option("--vmax", vmax, "False colour: value at the top (default: the image's maximum)");
+
+    CompareArgs compare_args;
+    auto* compare_cmd = app.add_subcommand("compare", "Compare two images in linear light (RMSE, PSNR, "
+                                                      "max error); exit 1 past a threshold");
+    compare_cmd->add_option("A", compare_args.a, "First image (PNG is decoded from sRGB, EXR is linear)")->required();
+    compare_cmd->add_option("B", compare_args.b, "Second image, same size")->required();
+    compare_cmd->add_option("--diff", compare_args.diff, "Write |A - B| x gain here (PNG or EXR)");
+    compare_cmd->add_option("--side-by-side", compare_args.side_by_side,
+                            "Write A | B | gain x |A - B| here, tone-mapped for a person (PNG)");
+    compare_cmd->add_option("--diff-gain", compare_args.diff_gain, "Gain of the difference images")
+        ->capture_default_str()->check(CLI::PositiveNumber);
+    compare_cmd->add_option("--clip", compare_args.clip, "Clamp both images' linear values to [0, "
+                                                         "CLIP] first (e.g. 4: emitters stop dominating)")
+        ->check(CLI::PositiveNumber);
+    compare_cmd->add_option("--max-rmse", compare_args.max_rmse, "Fail (exit 1) when the RMSE is larger");
+    compare_cmd->add_option("--min-psnr", compare_args.min_psnr, "Fail (exit 1) when the PSNR (dB, peak 1) is lower");
+    compare_cmd->add_option("--max-error", compare_args.max_error, "Fail (exit 1) when a channel differs by more");
 
     auto* info_cmd = app.add_subcommand("info", "List what a visual database holds");
     info_cmd->add_option("--db", db, "Visual database")->required();
@@ -861,7 +1101,7 @@ int run_cli(int argc, char** argv) {
     std::string out_dir;
     auto* run_cmd = app.add_subcommand("run", "Import, bake and export in one go");
     run_cmd->add_option("MODEL", import_args.models, "Model files: obj, gltf, glb, 3ds, dae, fbx, dxf, ifc, stl, ply, off")->required();
-    run_cmd->add_option("--out", out_dir, "Output directory (STEM.visdb, STEM.ply, STEM.obj)")->required();
+    run_cmd->add_option("--out", out_dir, "Output directory (STEM.visdb, STEM.ply, STEM.obj, STEM.png)")->required();
     add_import_options(*run_cmd, import_args);
     add_bake_options(*run_cmd, bake_args);
 
@@ -894,7 +1134,23 @@ int run_cli(int argc, char** argv) {
         } else if (cmd == "bake") {
             bake_into(db, to_options(bake_args), bake_args.convergence_csv);
         } else if (cmd == "export") {
-            export_bake(db, bake_name, format, output, ascii);
+            // An option given but not used by the format is an error, never ignored
+            const bool pov = format == "pov" || format == "pov-reference";
+            for (const char* name : {"--light-samples", "--reference-bounces", "--quality"})
+                if (export_cmd->count(name) && format != "pov-reference")
+                    bad_input(std::string(name) + " applies to --format pov-reference only");
+            for (const char* name : {"--camera", "--width", "--height"})
+                if (export_cmd->count(name) && !pov)
+                    bad_input(std::string(name) + " applies to --format pov and pov-reference only");
+            if (ascii && format != "ply") bad_input("--ascii applies to --format ply only");
+            export_bake(db, bake_name, format, output, ascii, view);
+        } else if (cmd == "render") {
+            for (const char* name : {"--vmin", "--vmax"})
+                if (render_cmd->count(name) && !false_colour)
+                    bad_input(std::string(name) + " applies to --false-colour only");
+            render_image(db, bake_name, output, view, false_colour, vmin, vmax);
+        } else if (cmd == "compare") {
+            return compare_images(compare_args);
         } else if (cmd == "probe") {
             probe(db, points_path, bake_name);
         } else if (cmd == "field-error") {
@@ -924,6 +1180,9 @@ int run_cli(int argc, char** argv) {
             fs::rename(tmp_db, final_db);
             export_bake(final_db.string(), "", "ply", (fs::path(out_dir) / (stem + ".ply")).string(), false);
             export_bake(final_db.string(), "", "obj", (fs::path(out_dir) / (stem + ".obj")).string(), false);
+            // A first look through the scene's first camera (or the default one)
+            render_image(final_db.string(), "", (fs::path(out_dir) / (stem + ".png")).string(), ViewArgs{},
+                         false, std::nullopt, std::nullopt);
             std::cout << "database " << final_db.string() << "\n";
         }
     } catch (const CommandError& e) {

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "abrad/export/image.h"
 #include "abrad/export/writers.h"
 
 namespace abrad::exporter {
@@ -21,21 +22,20 @@ double luminance(const glm::vec3& c) {
            0.0722 * static_cast<double>(c.b);
 }
 
-/// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0,1].
-double srgb_encode(double v) {
-    return v < 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
-}
-
 /// 8-bit code of one channel: clamp the tone-mapped value, encode, round.
 std::uint8_t channel_byte(float radiosity, double exposure) {
-    // NaN and negative radiosity show as black
-    const double v = radiosity > 0.0f ? static_cast<double>(radiosity) : 0.0;
-    const double mapped = 1.0 - std::exp(-exposure * v);
+    const double mapped = tone_value(static_cast<double>(radiosity), ToneMap{.exposure = exposure});
     const double encoded = srgb_encode(std::clamp(mapped, 0.0, 1.0));
     return static_cast<std::uint8_t>(std::lround(std::clamp(encoded, 0.0, 1.0) * 255.0));
 }
 
 }  // namespace
+
+double tone_value(double radiosity, const ToneMap& tone) {
+    // NaN and negative radiosity show as black
+    const double v = radiosity > 0.0 ? radiosity : 0.0;
+    return 1.0 - std::exp(-tone.exposure * v);
+}
 
 ToneMap auto_tone_map(const visdb::BakeMesh& mesh) {
     // Collect the finite vertex luminances _ys_

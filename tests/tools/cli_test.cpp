@@ -550,6 +550,13 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
     const double east = m * 0.72 * c * c / (M_PI * r2);  // point-source estimate, 7 m away
     EXPECT_LT(e.x, own + 1.05 * east);
     EXPECT_NEAR(e.x, e.y, 1e-4 * e.x);  // white panels (the warm hall panel is all but hidden)
+
+    // A photometric bake's false-colour image is in lux, through the scene file's camera
+    const Result fc = run("render --db " + db + " --false-colour --width 80 --height 60 --output " +
+                          path("lux.png").string());
+    ASSERT_EQ(fc.status, 0) << fc.output;
+    EXPECT_NE(fc.output.find(" lux, camera '" + scene.cameras[0].name + "'"), std::string::npos) << fc.output;
+    EXPECT_TRUE(fs::exists(path("lux.png")));
 }
 
 // ezdxf's 3dface.dxf (millimetres, layer 0, faces facing down) over the dxf_plan scene
@@ -595,6 +602,7 @@ TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("coplanar overlapping triangle pairs (z-fighting): 0"), std::string::npos) << r.output;
     EXPECT_TRUE(fs::exists(path("cornell") / "CornellBox-Original.ply"));
+    EXPECT_TRUE(fs::exists(path("cornell") / "CornellBox-Original.png"));
     const std::string db = (path("cornell") / "CornellBox-Original.visdb").string();
     const glm::dvec3 e = probe_point(db, write("c.csv", "-0.005,0.03,1.3,0,0,1\n"));
     const double f = centred_rectangle_form_factor(0.47, 0.38, 0.68);
@@ -677,4 +685,91 @@ TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
         EXPECT_NEAR(converged[i].y, rows[i][5], 1e-5 * rows[i][5]) << "point " << i;
         EXPECT_GT(converged[i].y, 1.02 * direct[i].y) << "point " << i;
     }
+}
+
+// Images and scenes for other renderers: pov, pov-reference and glTF exports, abrad render in
+// PNG/EXR and false colour, and compare's metrics and exit statuses.
+TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
+    const std::string db = baked_db();
+    const fs::path pov = path("baked.pov"), ref = path("reference.pov"), glb = path("bake.glb");
+    Result r = run("export --db " + db + " --format pov --output " + pov.string() + " --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("camera 'default'"), std::string::npos) << r.output;
+    const std::string pov_text = bytes(pov);
+    EXPECT_NE(pov_text.find("mesh2 {"), std::string::npos);
+    EXPECT_NE(pov_text.find("texture_list"), std::string::npos);
+    EXPECT_EQ(pov_text.find("light_source"), std::string::npos);
+    r = run("export --db " + db + " --format pov-reference --light-samples 16 --output " + ref.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(bytes(ref).find("spotlight"), std::string::npos);
+    r = run("export --db " + db + " --format gltf --output " + glb.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_EQ(bytes(glb).substr(0, 4), "glTF");
+    EXPECT_NE(bytes(glb).find("KHR_materials_unlit"), std::string::npos);
+
+    // Own renders: PNG, EXR, false colour with a legend (wider than the image)
+    const std::string png = path("own.png").string(), dark = path("dark.png").string();
+    r = run("render --db " + db + " --output " + png + " --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = run("render --db " + db + " --output " + dark + " --width 160 --height 120 --exposure 0.001");
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = run("render --db " + db + " --output " + path("own.exr").string() + " --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    r = run("render --db " + db + " --output " + path("fc.png").string() + " --false-colour --width 160 --height 120");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("false-colour irradiance, 0 .. "), std::string::npos) << r.output;
+
+    // compare: the same image passes, a darker one fails its threshold (exit 1)
+    r = run("compare " + png + " " + png + " --min-psnr 60");
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("rmse: 0\n"), std::string::npos) << r.output;
+    r = run("compare " + png + " " + dark + " --min-psnr 20 --side-by-side " + path("sbs.png").string());
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find("result: fail"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("dB < 20 dB"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(path("sbs.png")));
+    // Bad input: a missing image, different sizes, an unknown camera (exit 2, named)
+    r = run("compare " + png + " " + path("nope.png").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("nope.png"), std::string::npos) << r.output;
+    r = run("compare " + png + " " + path("fc.png").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    r = run("export --db " + db + " --format ply --light-samples 4 --output " + path("x.ply").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("--light-samples applies to --format pov-reference only"), std::string::npos) << r.output;
+    r = run("render --db " + db + " --output " + path("own.bmpx").string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("own.bmpx: unknown image type '.bmpx'"), std::string::npos) << r.output;
+    r = run("render --db " + db + " --output " + png + " --vmax 3");
+    EXPECT_EQ(r.status, 2) << r.output;
+    r = run("render --db " + db + " --output " + png + " --camera attic");
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("abrad render: no camera 'attic'"), std::string::npos) << r.output;
+}
+
+// Cameras of the scene file reach the pov export and abrad render by name; the first is the
+// default when --camera is not given.
+TEST_F(Cli, SceneFileCamerasByName) {
+    const std::string db = path("cams.visdb").string();
+    const std::string scene = write("cams.toml",
+                                    "[[camera]]\nname = \"top\"\nposition = [0.25, 0.5, 2.5]\nlook_at = [0.25, 0.5, 0]\n"
+                                    "up = [0, 1, 0]\nfov = 50\n\n"
+                                    "[[camera]]\nname = \"corner\"\nposition = [-1.5, -1.5, 1.6]\nlook_at = [0, 0, 1]\n");
+    ASSERT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db + " --scene " + scene).status, 0);
+    ASSERT_EQ(run("bake --db " + db + " --dm off").status, 0);
+    Result r = run("export --db " + db + " --format pov --camera top --output " + path("top.pov").string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(bytes(path("top.pov")).find("location <0.25,0.5,2.5>"), std::string::npos);
+    EXPECT_NE(bytes(path("top.pov")).find("direction <0,0,-1>"), std::string::npos);
+    const std::string top = path("top.exr").string(), first = path("first.exr").string(),
+                      corner = path("corner.exr").string();
+    r = run("render --db " + db + " --camera top --output " + top + " --width 64 --height 48");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("camera 'top'"), std::string::npos) << r.output;
+    r = run("render --db " + db + " --output " + first + " --width 64 --height 48");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("camera 'top'"), std::string::npos) << r.output;
+    ASSERT_EQ(run("render --db " + db + " --camera corner --output " + corner + " --width 64 --height 48").status, 0);
+    EXPECT_EQ(run("compare " + top + " " + first + " --max-error 0").status, 0);
+    EXPECT_EQ(run("compare " + top + " " + corner + " --min-psnr 40").status, 1);
 }

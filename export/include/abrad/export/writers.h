@@ -29,6 +29,11 @@ struct ToneMap {
 /// An empty or all-dark mesh (Y95 <= 0) gets exposure 1.
 ToneMap auto_tone_map(const visdb::BakeMesh& mesh);
 
+/// The tone curve on one linear value: 1 - exp(-exposure max(v, 0)) (NaN counts as 0), in
+/// [0, 1), still linear (sRGB-encode it for display). Every image path uses it: PLY/OBJ/glTF
+/// colours per vertex, `abrad render` and `abrad compare` per pixel.
+double tone_value(double radiosity, const ToneMap& tone);
+
 /// Display colour of one radiosity value (8-bit sRGB): per channel v' = 1 - exp(-exposure
 /// max(v, 0)) (NaN counts as 0), the sRGB transfer function, rounded to 0..255.
 std::array<std::uint8_t, 3> display_colour(const glm::vec3& radiosity, const ToneMap& tone);
@@ -55,5 +60,67 @@ void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh,
 /// to `.tmp` first and renamed.
 void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
                const visdb::BakeMesh& mesh, const ToneMap& tone);
+
+/// What the POV-Ray exports look through and how bright they are.
+struct PovView {
+    visdb::Camera camera;  ///< see select_camera() (render.h)
+    int width = 640;       ///< the image size the camera's aspect ratio is set for
+    int height = 480;
+    double exposure = 1.0;  ///< default of `Abrad_Exposure`: image value = exposure × B
+};
+
+/// Writes the bake as POV-Ray 3.7 source: one `mesh2` per surface (vertices relative to an
+/// origin near the mesh's centre, written as the shortest text that reads back as the same
+/// float, plus a `translate`), a `texture_list` with each vertex's radiosity B as pigment and
+/// `finish { ambient 0 diffuse 0 emission Abrad_Exposure }`, so POV-Ray shows the bake
+/// Gouraud-interpolated and unlit, on the front of each face (the bake shades fronts only:
+/// backs get a black `interior_texture`, the winding written reversed because POV-Ray's front
+/// is left-handed); `camera` from `view`, no lights, black background.
+/// `Abrad_Exposure` is declared only when not already defined (override it with
+/// `Declare=Abrad_Exposure=1` on the povray command line for absolute values). Render to
+/// OpenEXR (`+FE`) for linear values; a PNG clips them at 1. Throws ExportError naming `path`
+/// on an inconsistent mesh or an I/O failure (written to PATH.tmp and renamed).
+void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
+               const visdb::BakeMesh& mesh, const PovView& view);
+
+/// POV-Ray radiosity settings of the reference scene.
+enum class PovQuality { Low, Medium, High };
+
+struct PovReferenceOptions {
+    PovView view;
+    /// Point lights sampling all emitters together (each emitter triangle gets k² of them,
+    /// k = max(1, round(sqrt(light_samples × its share of the emitting area)))).
+    int light_samples = 256;
+    /// POV-Ray radiosity recursion limit: 0 = off (direct light only, to compare with a
+    /// `--bounces 0` bake), 1..20 = that many diffuse bounces.
+    int bounces = 0;
+    PovQuality quality = PovQuality::Medium;  ///< radiosity count / error_bound / pretrace
+};
+
+/// Writes the scene lit by POV-Ray itself (the reference renderer's view of the same model):
+/// each surface a `mesh2` with `pigment { rgb ρ transmit 1-α } finish { ambient 0 diffuse 1 }`;
+/// each emitter drawn with its emittance E as emission on its front (its back black, as in the
+/// `pov` export; `no_shadow`, `no_radiosity`) and
+/// sampled by point lights: every emitter triangle is cut into k² equal sub-triangles, each a
+/// `spotlight` at its centroid (1 mm in front) pointing along the normal with `tightness 1`
+/// (intensity ∝ cos θ, a Lambertian emitter's falloff), `fade_power 2` and a `fade_distance`
+/// of 0.1 mm (attenuation 2 F² / d² to within (F/d)²), and colour E dA / (2 π F²) × exposure,
+/// so a surface of reflectance ρ shows exposure × ρ H as in the bake. bounces > 0 turns on
+/// POV-Ray radiosity. Throws ExportError naming `path` on I/O failure or a surface or
+/// material id out of range.
+void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& scene,
+                         const PovReferenceOptions& options);
+
+/// Writes the bake as glTF 2.0 (`.gltf` with the buffer embedded as a data URI, or binary
+/// `.glb`, by the extension): one mesh primitive per surface with POSITION (float, metres,
+/// relative to the root node's translation, the mesh's rounded centre), NORMAL, COLOR_0 (the
+/// tone-mapped radiosity 1 - exp(-exposure B), linear float RGB as glTF requires) and the
+/// application attributes _IRRADIANCE and _RADIOSITY (float RGB, W/m² or lux); materials
+/// are `KHR_materials_unlit` with base colour white and single-sided (a bake shades fronts
+/// only), so viewers show the bake as is. Y up as
+/// glTF requires: abrad's (x, y, z) is written as (x, z, -y). Throws ExportError naming
+/// `path` on an inconsistent mesh or a write failure.
+void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
+                const visdb::BakeMesh& mesh, const ToneMap& tone);
 
 }  // namespace abrad::exporter

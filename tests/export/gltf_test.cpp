@@ -1,0 +1,135 @@
+// glTF export read back with tinygltf: Y up, metres, COLOR_0 = the tone-mapped bake, unlit
+// materials, the irradiance/radiosity attributes.
+
+#include <gtest/gtest.h>
+#include <tiny_gltf.h>
+
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "abrad/export/writers.h"
+
+namespace fs = std::filesystem;
+using namespace abrad;
+using namespace abrad::exporter;
+
+namespace {
+
+// Two surfaces at survey coordinates (1e6 m offsets, millimetre detail).
+visdb::BakeMesh survey_mesh() {
+    visdb::BakeMesh m;
+    const glm::dvec3 o(1.0e6, 2.0e6, 10.0);
+    m.positions = {o + glm::dvec3(0, 0, 0),     o + glm::dvec3(1.001, 0, 0),
+                   o + glm::dvec3(0, 2.002, 0), o + glm::dvec3(0, 0, 0),
+                   o + glm::dvec3(0, 2.002, 0), o + glm::dvec3(0, 0, 3.003)};
+    m.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}};
+    m.triangles = {{0, 1, 2}, {3, 5, 4}};
+    m.triangle_surface = {0, 1};
+    m.radiosity = {{10, 20, 30}, {1, 2, 3}, {0, 0, 0}, {5, 5, 5}, {50, 0, 0}, {0, 0, 500}};
+    for (const auto& b : m.radiosity) m.irradiance.push_back(2.0f * b);
+    return m;
+}
+
+visdb::Scene two_surfaces() {
+    visdb::Scene s;
+    s.materials = {{.name = "floor"}, {.name = "wall"}};
+    s.surfaces.resize(2);
+    s.surfaces[0].name = "floor";
+    s.surfaces[0].material = 0;
+    s.surfaces[1].name = "wall";
+    s.surfaces[1].material = 1;
+    return s;
+}
+
+std::vector<float> read_vec3(const tinygltf::Model& model, int accessor) {
+    const auto& a = model.accessors[static_cast<std::size_t>(accessor)];
+    EXPECT_EQ(a.componentType, TINYGLTF_COMPONENT_TYPE_FLOAT);
+    EXPECT_EQ(a.type, TINYGLTF_TYPE_VEC3);
+    const auto& view = model.bufferViews[static_cast<std::size_t>(a.bufferView)];
+    const auto& buf = model.buffers[static_cast<std::size_t>(view.buffer)];
+    std::vector<float> out(a.count * 3);
+    std::memcpy(out.data(), buf.data.data() + view.byteOffset + a.byteOffset,
+                out.size() * sizeof(float));
+    return out;
+}
+
+void check_round_trip(const fs::path& path) {
+    const visdb::BakeMesh m = survey_mesh();
+    const ToneMap tone{.exposure = 0.05};
+    write_gltf(path, two_surfaces(), m, tone);
+
+    tinygltf::TinyGLTF loader;
+    tinygltf::Model model;
+    std::string err, warn;
+    const bool ok = path.extension() == ".glb"
+                        ? loader.LoadBinaryFromFile(&model, &err, &warn, path.string())
+                        : loader.LoadASCIIFromFile(&model, &err, &warn, path.string());
+    ASSERT_TRUE(ok) << err;
+    ASSERT_EQ(model.meshes.size(), 2u);
+    EXPECT_EQ(model.meshes[1].name, "wall");
+    ASSERT_EQ(model.extensionsUsed.size(), 1u);
+    EXPECT_EQ(model.extensionsUsed[0], "KHR_materials_unlit");
+    ASSERT_EQ(model.materials.size(), 2u);
+    EXPECT_TRUE(model.materials[0].extensions.count("KHR_materials_unlit"));
+    EXPECT_FALSE(model.materials[0].doubleSided);
+
+    // The root node carries the origin (Y up); children the surfaces
+    const tinygltf::Node& root = model.nodes[static_cast<std::size_t>(model.scenes[0].nodes[0])];
+    ASSERT_EQ(root.translation.size(), 3u);
+    ASSERT_EQ(root.children.size(), 2u);
+    const glm::dvec3 t(root.translation[0], root.translation[1], root.translation[2]);
+
+    const tinygltf::Primitive& prim = model.meshes[0].primitives[0];
+    const auto pos = read_vec3(model, prim.attributes.at("POSITION"));
+    const auto col = read_vec3(model, prim.attributes.at("COLOR_0"));
+    const auto irr = read_vec3(model, prim.attributes.at("_IRRADIANCE"));
+    const auto nor = read_vec3(model, prim.attributes.at("NORMAL"));
+    ASSERT_EQ(pos.size(), 3 * m.positions.size());
+    for (std::size_t i = 0; i < m.positions.size(); ++i) {
+        // glTF (x, y, z) = abrad (x, z, -y): back to abrad's frame, to the millimetre
+        const glm::dvec3 g = t + glm::dvec3(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]);
+        EXPECT_NEAR(g.x, m.positions[i].x, 1e-5);
+        EXPECT_NEAR(-g.z, m.positions[i].y, 1e-5);
+        EXPECT_NEAR(g.y, m.positions[i].z, 1e-5);
+        EXPECT_FLOAT_EQ(nor[3 * i + 1], m.normals[i].z);
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(col[3 * i + static_cast<std::size_t>(c)],
+                        tone_value(m.radiosity[i][c], tone), 1e-6);
+            EXPECT_FLOAT_EQ(irr[3 * i + static_cast<std::size_t>(c)], m.irradiance[i][c]);
+        }
+    }
+    // The first surface's indices
+    const auto& ia = model.accessors[static_cast<std::size_t>(prim.indices)];
+    ASSERT_EQ(ia.count, 3u);
+    const auto& iv = model.bufferViews[static_cast<std::size_t>(ia.bufferView)];
+    std::uint32_t idx[3];
+    std::memcpy(idx, model.buffers[0].data.data() + iv.byteOffset, sizeof idx);
+    EXPECT_EQ(idx[0], 0u);
+    EXPECT_EQ(idx[1], 1u);
+    EXPECT_EQ(idx[2], 2u);
+    if (!::testing::Test::HasFailure()) fs::remove(path);
+}
+
+}  // namespace
+
+TEST(GltfExport, RoundTripGltf) {
+    check_round_trip(fs::temp_directory_path() /
+                     ("abrad_gltf_" + std::to_string(::getpid()) + ".gltf"));
+}
+
+TEST(GltfExport, RoundTripGlb) {
+    check_round_trip(fs::temp_directory_path() /
+                     ("abrad_gltf_" + std::to_string(::getpid()) + ".glb"));
+}
+
+TEST(GltfExport, RefusesOtherExtensionsAndBadMeshes) {
+    const fs::path p = fs::temp_directory_path() / "abrad_gltf_bad.obj";
+    EXPECT_THROW(write_gltf(p, two_surfaces(), survey_mesh(), {}), ExportError);
+    visdb::BakeMesh bad = survey_mesh();
+    bad.radiosity.pop_back();
+    EXPECT_THROW(
+        write_gltf(fs::temp_directory_path() / "abrad_gltf_bad.gltf", two_surfaces(), bad, {}),
+        ExportError);
+}
