@@ -440,12 +440,25 @@ void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visd
                     << h[k].x << "," << h[k].y << "," << h[k].z << "\n";
             if (!out) throw CommandError{kExitFailure, csv.string() + ": cannot write the grid values"};
         }
+        // False colour, top row = largest y, from 0 to the grid's maximum
+        const fs::path png = prefix.string() + "grid-" + file_safe(g.name) + ".png";
+        std::vector<double> image(e.size());
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i)
+                image[std::size_t(j) * nx + i] = e[std::size_t(ny - 1 - j) * nx + i];
+        try {
+            exporter::write_false_colour_image(png, nx, ny, image, 0.0, hi > 0.0 ? hi : 1.0,
+                                               bake.unit == "lux" ? "lux" : "W/m²");
+        } catch (const std::exception& x) {
+            throw CommandError{kExitFailure, png.string() + ": " + x.what()};
+        }
         const double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::printf("  grid '%s': %d x %d points at z %.3g m: E_avg %.4g, E_min %.4g, E_max %.4g %s, "
-                    "U0 %.3f (%s, %.2f s)\n",
+                    "U0 %.3f (%s, %s, %.2f s)\n",
                     g.name.c_str(), nx, ny, g.z, avg, lo, hi, bake.unit.c_str(),
-                    avg > 0.0 ? lo / avg : 0.0, csv.string().c_str(), seconds);
+                    avg > 0.0 ? lo / avg : 0.0, csv.string().c_str(), png.filename().string().c_str(),
+                    seconds);
     }
 }
 

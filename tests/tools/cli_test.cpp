@@ -653,6 +653,7 @@ TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
     EXPECT_NEAR(lo, mn, 1e-3 * lo);
     EXPECT_NEAR(hi, mx, 1e-3 * hi);
     EXPECT_NEAR(u0, mn / (sum / 16), 2e-3);
+    EXPECT_EQ(bytes(path("ir") / "CornellBox-Original.grid-work_plane.png").substr(1, 3), "PNG");
 
     // Probe the grid's points: with the converged bake, the CSV's values; with a direct-only
     // bake, less at every point: the lit ceiling the work plane faces adds 4-5 %
