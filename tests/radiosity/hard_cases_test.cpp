@@ -350,7 +350,8 @@ TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
         scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 0, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
                                            {0, 0, 1.5}, 4));
     scene.materials[0].reflectance = {0.99, 0.99, 0.99};
-    BakeOptions o;  // interreflection until converged (the default)
+    BakeOptions o;
+    o.bounces = -1;  // interreflection until converged
     o.dm = false;
     const visdb::Bake b = bake(scene, o);
     expect_sane(b);

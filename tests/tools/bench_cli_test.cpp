@@ -10,26 +10,15 @@
 #include <sstream>
 #include <string>
 
+#include "run_abrad.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Outcome {
-    int status;
-    std::string output;
-};
+using Outcome = ::abrad::testing::Result;
 
-Outcome abrad(const std::string& args) {
-    const std::string cmd = std::string(ABRAD_EXE) + " " + args + " 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return {-1, "popen failed"};
-    std::string out;
-    char buf[4096];
-    std::size_t n;
-    while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
-    const int st = pclose(pipe);
-    return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+Outcome abrad(const std::string& args) { return ::abrad::testing::run_abrad(args); }
 
 class BenchCli : public ::testing::Test {
 protected:

@@ -25,27 +25,14 @@
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/visdb/store.h"
 #include "../radiosity/mesh_checks.h"
+#include "run_abrad.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-    int status;
-    std::string output;  // stdout and stderr
-};
-
-Result run(const std::string& args) {
-    const std::string cmd = std::string(ABRAD_EXE) + " " + args + " 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return {-1, "popen failed"};
-    std::string out;
-    char buf[4096];
-    std::size_t n;
-    while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
-    const int st = pclose(pipe);
-    return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using abrad::testing::Result;
+Result run(const std::string& args) { return abrad::testing::run_abrad(args); }
 
 std::string bytes(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);

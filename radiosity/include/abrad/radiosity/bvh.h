@@ -64,43 +64,13 @@ public:
     /// Calls `visit(patch_index)` for every patch whose box overlaps `query`.
     template <typename Visit>
     void query(const Box& query, Visit&& visit) const {
-        if (m_nodes.empty()) return;
-        std::uint32_t stack[64];
-        int top = 0;
-        stack[top++] = 0;
-        while (top > 0) {
-            const Node& n = m_nodes[stack[--top]];
-            if (!n.box.overlaps(query)) continue;
-            if (n.count > 0) {
-                for (std::uint32_t i = 0; i < n.count; ++i)
-                    if (m_boxes[m_order[n.first + i]].overlaps(query)) visit(m_order[n.first + i]);
-            } else {
-                stack[top++] = n.first;
-                stack[top++] = n.first + 1;
-            }
-        }
+        traverse([&](const Box& b) { return b.overlaps(query); }, visit);
     }
 
     /// Calls `visit(patch_index)` for every patch whose box meets `hull` (conservative).
     template <typename Visit>
     void query(const Hull& hull, Visit&& visit) const {
-        if (m_nodes.empty()) return;
-        std::uint32_t stack[64];
-        int top = 0;
-        stack[top++] = 0;
-        while (top > 0) {
-            const Node& n = m_nodes[stack[--top]];
-            if (!n.box.overlaps(hull.box()) || !hull.may_overlap(n.box)) continue;
-            if (n.count > 0) {
-                for (std::uint32_t i = 0; i < n.count; ++i) {
-                    const std::uint32_t id = m_order[n.first + i];
-                    if (m_boxes[id].overlaps(hull.box()) && hull.may_overlap(m_boxes[id])) visit(id);
-                }
-            } else {
-                stack[top++] = n.first;
-                stack[top++] = n.first + 1;
-            }
-        }
+        traverse([&](const Box& b) { return b.overlaps(hull.box()) && hull.may_overlap(b); }, visit);
     }
 
 private:
@@ -110,6 +80,28 @@ private:
         std::uint32_t count = 0;  // patches in a leaf, 0 for inner nodes
     };
     void build(std::uint32_t self, std::uint32_t begin, std::uint32_t end, int depth);
+
+    // Depth-first walk: nodes and patches whose box passes `meets` are entered or visited.
+    template <typename Meets, typename Visit>
+    void traverse(Meets&& meets, Visit&& visit) const {
+        if (m_nodes.empty()) return;
+        std::uint32_t stack[64];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& n = m_nodes[stack[--top]];
+            if (!meets(n.box)) continue;
+            if (n.count > 0) {
+                for (std::uint32_t i = 0; i < n.count; ++i) {
+                    const std::uint32_t id = m_order[n.first + i];
+                    if (meets(m_boxes[id])) visit(id);
+                }
+            } else {
+                stack[top++] = n.first;
+                stack[top++] = n.first + 1;
+            }
+        }
+    }
 
     std::vector<Box> m_boxes;
     std::vector<glm::dvec3> m_centres;
