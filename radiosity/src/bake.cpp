@@ -309,10 +309,6 @@ std::vector<visdb::Rgb> average_to_vertices(const Work& w, const std::vector<vis
     return vert;
 }
 
-ShooterFrame light_frame(const Patch& light) {
-    return ShooterFrame::at((light.p[0] + light.p[1] + light.p[2]) / 3.0, unit_normal(light));
-}
-
 }  // namespace
 
 std::string to_string(Shading shading) { return shading == Shading::Exact ? "exact" : "patch"; }
@@ -437,7 +433,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         const std::vector<std::uint32_t> near = light_candidates(bvh, w.patches, l, options.reach);
         const std::vector<std::uint32_t> near_vertices = vertices_of(near, w.mesh.triangles);
         so.only = &near;
-        const ShootResult shot = shoot(light_frame(light), w.patches, hemicube, so);
+        const ShootResult shot = shoot(frame_of(light), w.patches, hemicube, so);
         const double t_shoot = seconds_since(t0);
 
         std::vector<visdb::Rgb> tri(nt, visdb::Rgb(0.0));
@@ -749,7 +745,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
             tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
                 const std::uint32_t l = lights[li];
                 // The light's own pieces lie in the shooter's plane and receive nothing
-                const ShootResult shot = shoot(light_frame(w.patches[l]), target.patches, hemicube, so);
+                const ShootResult shot = shoot(frame_of(w.patches[l]), target.patches, hemicube, so);
                 std::vector<visdb::Rgb> mine(tri.size(), visdb::Rgb(0.0));
                 add_patch_irradiance(shot, w.emittance[l], w.area[l], target, mine);
                 std::lock_guard lock(accumulate);

@@ -4,7 +4,6 @@
 #include "abrad/radiosity/indirect.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -48,15 +47,9 @@ struct Pieces {
     std::vector<Patch> patch;
     std::vector<std::uint32_t> element;
     std::vector<glm::dvec3> centroid;
-    std::vector<std::uint32_t> first_of_triangle;  // CSR: pieces of scene triangle t
 };
 
 double area_of(const Patch& p) { return 0.5 * glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0])); }
-
-ShooterFrame frame_of(const Patch& p) {
-    return ShooterFrame::at((p.p[0] + p.p[1] + p.p[2]) / 3.0,
-                            glm::normalize(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0])));
-}
 
 // Form factors from one shooting point onto the elements, fronts and backs apart, given the
 // hemicube's form factor of every piece.
@@ -168,7 +161,6 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
     // Pieces and elements: triangles larger than a cell cut into n² similar pieces, each piece
     // in the element of the cell holding its centroid
     Pieces pieces;
-    pieces.first_of_triangle.assign(nt + 1, 0);
     std::vector<visdb::Rgb> rho_area;
     auto element_of = [&](std::uint32_t r, const glm::dvec3& c) {
         const auto& g = sol.grids[r];
@@ -184,7 +176,6 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
     };
     for (std::size_t t = 0; t < nt; ++t) {
         const Patch& p = in.patches[t];
-        pieces.first_of_triangle[t] = static_cast<std::uint32_t>(pieces.patch.size());
         double longest = 0.0;
         for (int k = 0; k < 3; ++k) longest = std::max(longest, glm::length(p.p[(k + 1) % 3] - p.p[k]));
         const int n = static_cast<int>(std::clamp(std::ceil(longest / size), 1.0, 64.0));
@@ -211,7 +202,6 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
                 if (i + j + 2 <= n) add(at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
             }
     }
-    pieces.first_of_triangle[nt] = static_cast<std::uint32_t>(pieces.patch.size());
     const std::size_t ne = sol.elements.size(), np = pieces.patch.size();
     sol.pieces = np;
     double total_area = 0.0;

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
 #include "abrad/radiosity/hemicube.h"
@@ -64,6 +65,12 @@ struct ShootResult {
     /// Occluders of `receiver` (a sub-range of `occlusion`).
     std::span<const OcclusionPair> occluders_of(std::uint32_t receiver) const;
 };
+
+/// The hemicube frame of a patch: at its centroid, around its front (counter-clockwise) normal.
+inline ShooterFrame frame_of(const Patch& p) {
+    return ShooterFrame::at((p.p[0] + p.p[1] + p.p[2]) / 3.0,
+                            glm::normalize(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0])));
+}
 
 /// Shoots from `frame` (a point and its normal) to `patches` with a hemicube of the given
 /// resolution. Patches behind the shooter's plane get nothing; every patch occludes from
