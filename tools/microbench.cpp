@@ -25,7 +25,8 @@ std::vector<Patch> room(int n, int k) {
         for (int j = 0; j < cells; ++j)
             for (int i = 0; i < cells; ++i) {
                 const glm::dvec3 a = o + u * (double(i) / cells) + v * (double(j) / cells);
-                const glm::dvec3 b = a + u / double(cells), d = a + v / double(cells), c = b + v / double(cells);
+                const glm::dvec3 b = a + u / double(cells), d = a + v / double(cells),
+                                 c = b + v / double(cells);
                 out.push_back({{a, b, c}, opacity});
                 out.push_back({{a, c, d}, opacity});
             }
@@ -50,7 +51,9 @@ void shoot_bench(benchmark::State& state, Visibility method, int subpixels, bool
     const Hemicube hc(static_cast<int>(state.range(0)));
     std::size_t fragments = 0;
     for (auto _ : state) {
-        const ShootResult r = shoot(kFrame, patches, hc, {.method = method, .subpixels = subpixels, .occlusion = occlusion});
+        const ShootResult r =
+            shoot(kFrame, patches, hc,
+                  {.method = method, .subpixels = subpixels, .occlusion = occlusion});
         fragments = r.fragments;
         benchmark::DoNotOptimize(r.form_factor.data());
     }
@@ -62,7 +65,9 @@ void BM_ShootZBuffer(benchmark::State& s) { shoot_bench(s, Visibility::ZBuffer, 
 void BM_ShootABuffer4(benchmark::State& s) { shoot_bench(s, Visibility::ABuffer, 4, false); }
 void BM_ShootABuffer8(benchmark::State& s) { shoot_bench(s, Visibility::ABuffer, 8, false); }
 void BM_ShootABuffer16(benchmark::State& s) { shoot_bench(s, Visibility::ABuffer, 16, false); }
-void BM_ShootABuffer8Occlusion(benchmark::State& s) { shoot_bench(s, Visibility::ABuffer, 8, true); }
+void BM_ShootABuffer8Occlusion(benchmark::State& s) {
+    shoot_bench(s, Visibility::ABuffer, 8, true);
+}
 BENCHMARK(BM_ShootZBuffer)->Arg(50)->Arg(100)->Arg(200)->Arg(400)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ShootABuffer4)->Arg(26)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ShootABuffer8)->Arg(26)->Arg(50)->Arg(100)->Unit(benchmark::kMillisecond);

@@ -90,7 +90,6 @@ constexpr double kMaxReflectance = 0.999;  ///< radiosity needs ρ < 1
 constexpr const char* kDefaultMaterialName = "default";
 constexpr double kPi = 3.14159265358979323846;
 
-
 std::string lower(std::string_view s) {
     std::string out(s);
     for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -126,7 +125,6 @@ std::optional<long> parse_long(std::string_view s) {
     if (ec != std::errc() || ptr != s.data() + s.size()) return std::nullopt;
     return v;
 }
-
 
 // ---------------------------------------------------------------------------------------------
 // Assimp's logger
@@ -726,8 +724,9 @@ void check_ply(std::string_view text, const std::string& file) {
                 // Elements are one per line; blank lines are skipped
                 do {
                     if (!next_line()) {
-                        fail(0, "file ends in element " + quote_name(e.name) + " " + std::to_string(i) +
-                                    " of " + std::to_string(e.count) + " (truncated file?)");
+                        fail(0, "file ends in element " + quote_name(e.name) + " " +
+                                    std::to_string(i) + " of " + std::to_string(e.count) +
+                                    " (truncated file?)");
                     }
                     split(l);
                 } while (tokens.empty());
@@ -752,8 +751,9 @@ void check_ply(std::string_view text, const std::string& file) {
                         if (p.is_index_list) {
                             const std::optional<long> v = parse_long(tokens[t]);
                             if (!v || *v < 0 || static_cast<std::size_t>(*v) >= vertices) {
-                                fail(line, "vertex index " + quote_name(tokens[t]) + " out of range (" +
-                                               std::to_string(vertices) + " vertices)");
+                                fail(line, "vertex index " + quote_name(tokens[t]) +
+                                               " out of range (" + std::to_string(vertices) +
+                                               " vertices)");
                             }
                         } else if (!parse_double(tokens[t])) {
                             fail(line, "malformed number");
@@ -790,16 +790,17 @@ void check_ply(std::string_view text, const std::string& file) {
                 const std::uint64_t n = read_uint(at, p.count_size);
                 at += p.count_size;
                 if (n > (text.size() - at) / p.item_size) {
-                    fail(0, "list count " + std::to_string(n) + " in element " + quote_name(e.name) +
-                                " " + std::to_string(i) + " runs past the end of the file");
+                    fail(0, "list count " + std::to_string(n) + " in element " +
+                                quote_name(e.name) + " " + std::to_string(i) +
+                                " runs past the end of the file");
                 }
                 if (p.is_index_list && !p.is_float) {
                     for (std::uint64_t k = 0; k < n; ++k) {
                         std::uint64_t v = read_uint(at + k * p.item_size, p.item_size);
                         const bool negative = (v >> (8 * p.item_size - 1)) & 1U;
                         if (negative || v >= vertices) {
-                            fail(0, "vertex index out of range in element " + quote_name(e.name) + " " +
-                                        std::to_string(i));
+                            fail(0, "vertex index out of range in element " + quote_name(e.name) +
+                                        " " + std::to_string(i));
                         }
                     }
                 }

@@ -20,14 +20,13 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 #include <limits>
 #include <map>
 #include <numeric>
 #include <unordered_map>
 #include <utility>
-
-#include <glm/geometric.hpp>
-#include <glm/vec2.hpp>
 
 #include "raw_model.h"
 
@@ -38,8 +37,6 @@ namespace {
 constexpr double kDegenerateAreaFactor = 1e-12;  ///< × bbox diagonal², m²
 constexpr double kNonPlanarTolerance = 1e-4;     ///< × polygon extent, before a note
 constexpr double kOverlapAreaFraction = 1e-6;    ///< of the smaller triangle, to count
-
-
 
 std::string format_general(double x) {
     std::array<char, 32> buf{};
@@ -229,9 +226,9 @@ double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<s
 /// Maps every raw vertex to a welded one: first bit-identical positions, then (when
 /// `distance` > 0) positions within `distance` of an earlier representative. Returns the
 /// representatives; counts the near (not identical) merges in `near`.
-std::vector<glm::dvec3> weld(const std::vector<glm::dvec3>& positions, const std::vector<bool>& used,
-                             double distance, std::vector<std::uint32_t>& weld_of,
-                             std::size_t& near) {
+std::vector<glm::dvec3> weld(const std::vector<glm::dvec3>& positions,
+                             const std::vector<bool>& used, double distance,
+                             std::vector<std::uint32_t>& weld_of, std::size_t& near) {
     std::vector<glm::dvec3> welded;
     weld_of.assign(positions.size(), 0);
     std::unordered_map<PositionKey, std::uint32_t, PositionKeyHash> exact;
@@ -451,9 +448,13 @@ std::map<std::pair<std::uint32_t, std::uint32_t>, OverlapTally> find_overlaps(
         items.reserve(group.size());
         for (std::size_t g = 0; g < group.size(); ++g) {
             const FlatTriangle& t = tris[group[g]];
-            Item item{std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest(),
-                      std::numeric_limits<double>::max(), std::numeric_limits<double>::lowest(),
-                      group[g], g < own, {}};
+            Item item{std::numeric_limits<double>::max(),
+                      std::numeric_limits<double>::lowest(),
+                      std::numeric_limits<double>::max(),
+                      std::numeric_limits<double>::lowest(),
+                      group[g],
+                      g < own,
+                      {}};
             for (int k = 0; k < 3; ++k) {
                 const glm::dvec3& p = positions[t.ids[k]];
                 item.q[k] = {glm::dot(p, u), glm::dot(p, v)};
@@ -477,8 +478,9 @@ std::map<std::pair<std::uint32_t, std::uint32_t>, OverlapTally> find_overlaps(
                 if (glm::dot(ta.normal, tb.normal) < 1.0 - 1e-6) continue;
                 bool coplanar = true;
                 for (int k = 0; k < 3 && coplanar; ++k)
-                    coplanar = std::abs(glm::dot(ta.normal, positions[tb.ids[k]] -
-                                                                positions[ta.ids.x])) <= tolerance;
+                    coplanar =
+                        std::abs(glm::dot(ta.normal, positions[tb.ids[k]] - positions[ta.ids.x])) <=
+                        tolerance;
                 if (!coplanar) continue;
                 const double area = overlap_area(a.q, b.q);
                 if (area <= kOverlapAreaFraction * std::min(ta.area, tb.area)) continue;
@@ -585,16 +587,16 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
         }
         if (degenerate > 0) {
             report.degenerate_dropped += degenerate;
-            degenerate_notes.add(at(
-                raw, face.place,
-                std::to_string(degenerate) + " degenerate (zero-area) triangle(s) dropped"));
+            degenerate_notes.add(
+                at(raw, face.place,
+                   std::to_string(degenerate) + " degenerate (zero-area) triangle(s) dropped"));
         }
         if (duplicate > 0) {
             report.duplicates_dropped += duplicate;
             const std::string of = raw.where ? raw.where(duplicate_of) : file;
             duplicate_notes.add(at(raw, face.place,
-                                   std::to_string(duplicate) + " triangle(s) repeating the face at " +
-                                       of + " dropped"));
+                                   std::to_string(duplicate) +
+                                       " triangle(s) repeating the face at " + of + " dropped"));
         }
     }
     degenerate_notes.finish(file);
@@ -621,7 +623,8 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
         std::vector<FlatTriangle> flat;
         for (std::size_t s = 0; s < raw.slots.size(); ++s) {
             for (const glm::u32vec3& t : slot_triangles[s]) {
-                const glm::dvec3 n = glm::cross(welded[t.y] - welded[t.x], welded[t.z] - welded[t.x]);
+                const glm::dvec3 n =
+                    glm::cross(welded[t.y] - welded[t.x], welded[t.z] - welded[t.x]);
                 const double length = glm::length(n);
                 flat.push_back({static_cast<std::uint32_t>(s), t, n / length, 0.5 * length});
             }
@@ -657,7 +660,8 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
         if (tris.empty()) {
             report.notes.push_back(at(raw, slot.place,
                                       "surface " + quote(slot.name) + " with material " +
-                                          quote(slot.material) + " has no triangles left; omitted"));
+                                          quote(slot.material) +
+                                          " has no triangles left; omitted"));
             continue;
         }
         const auto [mit, added] = material_index.try_emplace(
@@ -685,7 +689,8 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
                 t[k] = l;
             }
         }
-        for (const std::uint32_t id : touched) local[id] = std::numeric_limits<std::uint32_t>::max();
+        for (const std::uint32_t id : touched)
+            local[id] = std::numeric_limits<std::uint32_t>::max();
         surface.mesh.triangles = std::move(tris);
         report.triangles += surface.mesh.triangles.size();
         if (scene.materials[surface.material].is_emitter()) {

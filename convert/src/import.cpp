@@ -12,8 +12,8 @@ namespace abrad::convert {
 namespace {
 
 const std::vector<std::string>& assimp_extensions() {
-    static const std::vector<std::string> kExtensions = {"gltf", "glb", "3ds", "dae", "fbx", "dxf",
-                                                         "ifc",  "stl", "ply", "off"};
+    static const std::vector<std::string> kExtensions = {"gltf", "glb", "3ds", "dae", "fbx",
+                                                         "dxf",  "ifc", "stl", "ply", "off"};
     return kExtensions;
 }
 
@@ -69,7 +69,8 @@ ImportResult import_model(const std::filesystem::path& path, const ImportOptions
                           "export the model as IFC, glTF or OBJ");
     } else {
         std::string known;
-        for (const std::string& e : supported_extensions()) known += (known.empty() ? "" : ", ") + e;
+        for (const std::string& e : supported_extensions())
+            known += (known.empty() ? "" : ", ") + e;
         throw ImportError(file, 0,
                           "unknown model format '" + (ext.empty() ? std::string("(none)") : ext) +
                               "' (abrad reads " + known + ")");

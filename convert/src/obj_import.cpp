@@ -12,7 +12,6 @@
 // always yields n - 2 triangles; zero-area ones are dropped and counted afterwards.
 
 #include "abrad/convert/obj_import.h"
-#include "raw_model.h"
 
 #include <algorithm>
 #include <array>
@@ -35,12 +34,14 @@
 #include <unordered_map>
 #include <utility>
 
+#include "raw_model.h"
+
 namespace abrad::convert {
 
+using detail::fnv1a64_hex;
 using detail::located;
 using detail::quote;
 using detail::read_file_bytes;
-using detail::fnv1a64_hex;
 using detail::utc_now_iso8601;
 
 namespace {
@@ -48,7 +49,6 @@ namespace {
 constexpr double kMaxReflectance = 0.999;         ///< radiosity needs ρ < 1
 constexpr std::size_t kUnknownKeywordNotes = 20;  ///< distinct unknown statements shown
 constexpr const char* kDefaultMaterialName = "default";
-
 
 // ---------------------------------------------------------------------------------------------
 // Text input
@@ -251,7 +251,6 @@ class IgnoredStatements {
     std::vector<Entry> m_entries;
 };
 
-
 // ---------------------------------------------------------------------------------------------
 // MTL
 
@@ -326,8 +325,7 @@ class MaterialLibrary {
                 continue;
             }
             if (current == nullptr) {
-                notes.push_back(
-                    located(file, line_no, quote(key) + " before any newmtl ignored"));
+                notes.push_back(located(file, line_no, quote(key) + " before any newmtl ignored"));
                 continue;
             }
             apply(*current, tokens, file, line_no, notes);
@@ -356,13 +354,13 @@ class MaterialLibrary {
                     values.push_back(v);
                     break;
                 case NumberStatus::kMalformed:
-                    throw ImportError(file, line,
-                                      "malformed number " + quote(tokens[i]) + " in " +
-                                          quote(tokens[0]));
+                    throw ImportError(
+                        file, line,
+                        "malformed number " + quote(tokens[i]) + " in " + quote(tokens[0]));
                 case NumberStatus::kNonFinite:
-                    throw ImportError(file, line,
-                                      "non-finite value " + quote(tokens[i]) + " in " +
-                                          quote(tokens[0]));
+                    throw ImportError(
+                        file, line,
+                        "non-finite value " + quote(tokens[i]) + " in " + quote(tokens[0]));
             }
         }
         return values;
@@ -389,8 +387,7 @@ class MaterialLibrary {
         const std::vector<double> v = numbers(tokens, from, file, line);
         if (v.size() != 1) {
             throw ImportError(
-                file, line,
-                quote(tokens[0]) + " needs 1 number, got " + std::to_string(v.size()));
+                file, line, quote(tokens[0]) + " needs 1 number, got " + std::to_string(v.size()));
         }
         return v[0];
     }
@@ -733,7 +730,6 @@ class ObjParser {
     bool m_slot_valid = false;
 };
 
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -834,7 +830,9 @@ RawModel read_obj(const std::filesystem::path& path, const ImportOptions& option
         m.name = slot.material;
         raw.materials.push_back(std::move(m));
     }
-    raw.where = [file](std::size_t line) { return line > 0 ? file + ":" + std::to_string(line) : file; };
+    raw.where = [file](std::size_t line) {
+        return line > 0 ? file + ":" + std::to_string(line) : file;
+    };
     raw.source.path = file;
     raw.source.format = "obj";
     raw.source.checksum = fnv1a64_hex(bytes);

@@ -6,13 +6,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <string_view>
 #include <functional>
+#include <glm/vec3.hpp>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "abrad/convert/obj_import.h"
 #include "abrad/visdb/model.h"
@@ -21,10 +20,10 @@ namespace abrad::convert::detail {
 
 /// One future visdb::Surface: an (object, layer, material) triple of the source file.
 struct RawSlot {
-    std::string name;      ///< object, node or group name
-    std::string layer;     ///< CAD layer; empty when the format has none
-    std::string material;  ///< a name in RawModel::materials (or unknown: default material)
-    std::size_t place = 0; ///< where the slot first appears (see RawModel::where)
+    std::string name;       ///< object, node or group name
+    std::string layer;      ///< CAD layer; empty when the format has none
+    std::string material;   ///< a name in RawModel::materials (or unknown: default material)
+    std::size_t place = 0;  ///< where the slot first appears (see RawModel::where)
 };
 
 /// One polygon: corners `corners[first, first + count)`, indices into RawModel::positions.

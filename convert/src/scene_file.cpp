@@ -550,7 +550,8 @@ visdb::Material overridden(const visdb::Material& m, const SurfaceOverride& o) {
 bool same_properties(const visdb::Material& a, const visdb::Material& b) {
     const auto close = [](const visdb::Rgb& x, const visdb::Rgb& y) {
         for (int k = 0; k < 3; ++k)
-            if (std::abs(x[k] - y[k]) > 1e-9 * std::max(std::abs(x[k]), std::abs(y[k]))) return false;
+            if (std::abs(x[k] - y[k]) > 1e-9 * std::max(std::abs(x[k]), std::abs(y[k])))
+                return false;
         return true;
     };
     return a.reflectance == b.reflectance && close(a.emittance, b.emittance) &&

@@ -80,8 +80,9 @@ void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
     std::string buf;
     buf += "# abrad baked mesh: " + std::to_string(mesh.positions.size()) + " vertices, " +
            std::to_string(mesh.triangles.size()) + " triangles\n";
-    buf += "# v x y z r g b: position in metres, display colour (tone-mapped radiosity, sRGB, "
-           "exposure ";
+    buf +=
+        "# v x y z r g b: position in metres, display colour (tone-mapped radiosity, sRGB, "
+        "exposure ";
     detail::append_exact(buf, tone.exposure);
     buf += ")\n";
     buf += "mtllib " + mtl_file + "\n";

@@ -45,8 +45,8 @@ inline void validate_bake_mesh(const std::filesystem::path& path, const visdb::B
     constexpr auto kIntMax = static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max());
     if (n > kIntMax) fail(path, "invalid mesh: too many vertices (" + std::to_string(n) + ")");
     if (mesh.triangles.size() > kIntMax) {
-        fail(path, "invalid mesh: too many triangles (" + std::to_string(mesh.triangles.size()) +
-                       ")");
+        fail(path,
+             "invalid mesh: too many triangles (" + std::to_string(mesh.triangles.size()) + ")");
     }
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const auto& tri = mesh.triangles[t];
@@ -75,7 +75,8 @@ void append_exact(std::string& out, T value) {
 /// Appends `value` with `decimals` fixed decimals.
 inline void append_fixed(std::string& out, double value, int decimals) {
     char buf[400];  // fixed notation of the largest double needs ~310 characters
-    const auto res = std::to_chars(buf, buf + sizeof buf, value, std::chars_format::fixed, decimals);
+    const auto res =
+        std::to_chars(buf, buf + sizeof buf, value, std::chars_format::fixed, decimals);
     out.append(buf, res.ptr);
 }
 
@@ -93,7 +94,7 @@ inline std::string sanitise_name(std::string_view name) {
 /// successful commit() removes the temporary, so a failure never leaves a half file at
 /// `PATH` (nor a stray `PATH.tmp`). Errors are ExportError "PATH: cannot write: <strerror>".
 class AtomicFile {
-public:
+  public:
     explicit AtomicFile(std::filesystem::path path)
         : m_path(std::move(path)), m_tmp(m_path.string() + ".tmp") {
         errno = 0;
@@ -149,7 +150,7 @@ public:
 
     const std::filesystem::path& path() const { return m_path; }
 
-private:
+  private:
     [[noreturn]] void fail_io(int err) const {
         // strerror text, without strerror's shared buffer
         fail(m_path, "cannot write: " + (err != 0 ? std::generic_category().message(err)

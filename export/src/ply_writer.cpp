@@ -17,8 +17,9 @@ namespace {
 /// Appends `value` as little-endian bytes whatever the host's byte order.
 template <typename T>
 void append_le(std::string& out, T value) {
-    using Bits = std::conditional_t<sizeof(T) == 8, std::uint64_t,
-                                    std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint8_t>>;
+    using Bits =
+        std::conditional_t<sizeof(T) == 8, std::uint64_t,
+                           std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint8_t>>;
     static_assert(sizeof(Bits) == sizeof(T));
     const auto bits = std::bit_cast<Bits>(value);
     for (std::size_t i = 0; i < sizeof(T); ++i) {
@@ -41,27 +42,25 @@ std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options) 
         rest.remove_prefix(eol + 1);
     }
     h += "element vertex " + std::to_string(n) + "\n";
-    h +=
-        "property double x\n"
-        "property double y\n"
-        "property double z\n"
-        "property float nx\n"
-        "property float ny\n"
-        "property float nz\n"
-        "property uchar red\n"
-        "property uchar green\n"
-        "property uchar blue\n"
-        "property float irradiance_r\n"
-        "property float irradiance_g\n"
-        "property float irradiance_b\n"
-        "property float radiosity_r\n"
-        "property float radiosity_g\n"
-        "property float radiosity_b\n";
+    h += "property double x\n"
+         "property double y\n"
+         "property double z\n"
+         "property float nx\n"
+         "property float ny\n"
+         "property float nz\n"
+         "property uchar red\n"
+         "property uchar green\n"
+         "property uchar blue\n"
+         "property float irradiance_r\n"
+         "property float irradiance_g\n"
+         "property float irradiance_b\n"
+         "property float radiosity_r\n"
+         "property float radiosity_g\n"
+         "property float radiosity_b\n";
     h += "element face " + std::to_string(m) + "\n";
-    h +=
-        "property list uchar int vertex_indices\n"
-        "property int surface\n"
-        "end_header\n";
+    h += "property list uchar int vertex_indices\n"
+         "property int surface\n"
+         "end_header\n";
     return h;
 }
 
@@ -106,8 +105,8 @@ void append_vertex_ascii(std::string& out, const visdb::BakeMesh& mesh, std::siz
 
 }  // namespace
 
-void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh,
-               const ToneMap& tone, const PlyOptions& options) {
+void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, const ToneMap& tone,
+               const PlyOptions& options) {
     // Validate before anything touches the disk
     detail::validate_bake_mesh(path, mesh);
 

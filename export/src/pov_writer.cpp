@@ -212,7 +212,9 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
     }
     out += "}\n";
 
-    out += "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 } }\n";
+    out +=
+        "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 "
+        "} }\n";
     // One texture per material
     for (std::size_t m = 0; m < scene.materials.size(); ++m) {
         const visdb::Material& mat = scene.materials[m];

@@ -3,12 +3,19 @@
 
 #include "abrad/radiosity/bake.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <cmath>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <limits>
 #include <mutex>
 #include <numeric>
 #include <optional>
@@ -16,14 +23,6 @@
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
-
-#include <limits>
-
-#include <glm/common.hpp>
-#include <glm/geometric.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
-#include <tbb/parallel_for.h>
 
 #include "abrad/radiosity/bvh.h"
 #include "abrad/radiosity/cull.h"
@@ -46,10 +45,10 @@ double seconds_since(Clock::time_point t0) {
 // The bake mesh with what shading needs beside it.
 struct Work {
     visdb::BakeMesh mesh;
-    std::vector<Patch> patches;          // one per mesh triangle
-    std::vector<double> area;            // per triangle, m²
-    std::vector<visdb::Rgb> emittance;   // per triangle
-    std::vector<visdb::Rgb> reflectance; // per triangle
+    std::vector<Patch> patches;                           // one per mesh triangle
+    std::vector<double> area;                             // per triangle, m²
+    std::vector<visdb::Rgb> emittance;                    // per triangle
+    std::vector<visdb::Rgb> reflectance;                  // per triangle
     std::vector<std::uint32_t> incident_start, incident;  // triangles around each vertex (CSR)
     std::size_t degenerate = 0;
 };
@@ -65,7 +64,8 @@ void build_incidence(const visdb::BakeMesh& mesh, std::vector<std::uint32_t>& st
     incident.resize(start[nv]);
     std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-        for (int k = 0; k < 3; ++k) incident[fill[mesh.triangles[t][k]]++] = static_cast<std::uint32_t>(t);
+        for (int k = 0; k < 3; ++k)
+            incident[fill[mesh.triangles[t][k]]++] = static_cast<std::uint32_t>(t);
 }
 
 // Splits vertices by surface and face normal: faces of different planes never share one.
@@ -80,7 +80,8 @@ Work build_mesh(const visdb::Scene& scene) {
                             std::to_string(surface.material));
         const visdb::Material& material = scene.materials[surface.material];
         // For each source vertex: the bake vertices made from it, with their exact normals
-        std::vector<std::vector<std::pair<std::uint32_t, glm::dvec3>>> made(surface.mesh.positions.size());
+        std::vector<std::vector<std::pair<std::uint32_t, glm::dvec3>>> made(
+            surface.mesh.positions.size());
         for (const glm::u32vec3& t : surface.mesh.triangles) {
             const glm::dvec3 a = surface.mesh.positions.at(t.x), b = surface.mesh.positions.at(t.y),
                              c = surface.mesh.positions.at(t.z);
@@ -150,19 +151,21 @@ bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
 // Exact direct irradiance at any point from every light; occluders from a conservative query
 // of the box around the point and each light.
 visdb::Rgb exact_irradiance(const Work& w, const Bvh& bvh, std::span<const std::uint32_t> lights,
-                            const glm::dvec3& x, const glm::dvec3& n, std::vector<const Patch*>& occ,
-                            double reach) {
+                            const glm::dvec3& x, const glm::dvec3& n,
+                            std::vector<const Patch*>& occ, double reach) {
     visdb::Rgb h(0.0);
     for (const std::uint32_t l : lights) {
         const Patch& lp = w.patches[l];
         // Behind the light's plane (it gives nothing), or beyond its reach (cull.h)
-        if (glm::dot(x - lp.p[0], glm::cross(lp.p[1] - lp.p[0], lp.p[2] - lp.p[0])) <= 0.0) continue;
+        if (glm::dot(x - lp.p[0], glm::cross(lp.p[1] - lp.p[0], lp.p[2] - lp.p[0])) <= 0.0)
+            continue;
         if (reach > 0.0) {
             const glm::dvec3 d = glm::abs(x - (lp.p[0] + lp.p[1] + lp.p[2]) / 3.0);
             if (d.x > reach || d.y > reach || d.z > reach) continue;
         }
         occ.clear();
-        for_each_shadow_candidate(bvh, w.patches, l, x, [&](std::uint32_t id) { occ.push_back(&w.patches[id]); });
+        for_each_shadow_candidate(bvh, w.patches, l, x,
+                                  [&](std::uint32_t id) { occ.push_back(&w.patches[id]); });
         h += w.emittance[l] * visible_form_factor(x, n, w.patches[l], occ);
     }
     return h;
@@ -172,8 +175,8 @@ visdb::Rgb exact_irradiance(const Work& w, const Bvh& bvh, std::span<const std::
 // vertices are already split by surface and normal, so connected components suffice).
 struct Regions {
     std::vector<PlanarRegion> planar;
-    std::vector<std::uint32_t> surface;    // per region
-    std::vector<char> emitter;             // per region
+    std::vector<std::uint32_t> surface;      // per region
+    std::vector<char> emitter;               // per region
     std::vector<std::uint32_t> of_triangle;  // per bake triangle
 };
 
@@ -219,7 +222,8 @@ Regions make_regions(const Work& w) {
         const Patch& p = w.patches[t];
         normal_sum[id] += glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]);
     }
-    for (std::size_t i = 0; i < r.planar.size(); ++i) r.planar[i].normal = glm::normalize(normal_sum[i]);
+    for (std::size_t i = 0; i < r.planar.size(); ++i)
+        r.planar[i].normal = glm::normalize(normal_sum[i]);
     return r;
 }
 
@@ -243,8 +247,8 @@ struct PointKeyHash {
 };
 
 // The meshed regions as one bake mesh (each region's vertices its own).
-void assemble(const Regions& regions, const std::vector<MeshedRegion>& meshed, visdb::BakeMesh& mesh,
-              std::vector<std::uint32_t>& vertex_region) {
+void assemble(const Regions& regions, const std::vector<MeshedRegion>& meshed,
+              visdb::BakeMesh& mesh, std::vector<std::uint32_t>& vertex_region) {
     mesh = {};
     vertex_region.clear();
     for (std::size_t r = 0; r < meshed.size(); ++r) {
@@ -270,8 +274,10 @@ void describe_triangles(const visdb::Scene& scene, Work& w) {
     w.reflectance.clear();
     for (std::size_t t = 0; t < w.mesh.triangles.size(); ++t) {
         const glm::u32vec3 tri = w.mesh.triangles[t];
-        const visdb::Material& m = scene.materials[scene.surfaces[w.mesh.triangle_surface[t]].material];
-        const Patch p{{w.mesh.positions[tri.x], w.mesh.positions[tri.y], w.mesh.positions[tri.z]}, m.opacity};
+        const visdb::Material& m =
+            scene.materials[scene.surfaces[w.mesh.triangle_surface[t]].material];
+        const Patch p{{w.mesh.positions[tri.x], w.mesh.positions[tri.y], w.mesh.positions[tri.z]},
+                      m.opacity};
         w.patches.push_back(p);
         w.area.push_back(0.5 * glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0])));
         w.emittance.push_back(m.emittance);
@@ -328,16 +334,21 @@ void validate(const BakeOptions& o) {
                              .element_size = o.element_size,
                              .overrelaxation = o.overrelaxation});
     if (!(o.reach >= 0.0 && o.reach < 1e7))
-        throw BakeError("--reach must be >= 0 metres (0 = unlimited), got " + std::to_string(o.reach));
+        throw BakeError("--reach must be >= 0 metres (0 = unlimited), got " +
+                        std::to_string(o.reach));
     if (o.threads < 0) throw BakeError("--threads must be >= 0, got " + std::to_string(o.threads));
     if (!(o.dm_min_angle >= 0.0 && o.dm_min_angle <= 20.7))
-        throw BakeError("--dm-angle must be in [0, 20.7] degrees, got " + std::to_string(o.dm_min_angle));
+        throw BakeError("--dm-angle must be in [0, 20.7] degrees, got " +
+                        std::to_string(o.dm_min_angle));
     if (o.refine_rounds < 0 || o.refine_rounds > 20)
-        throw BakeError("--refine-rounds must be in [0, 20], got " + std::to_string(o.refine_rounds));
+        throw BakeError("--refine-rounds must be in [0, 20], got " +
+                        std::to_string(o.refine_rounds));
     if (!(o.refine_tolerance > 0.0 && o.refine_tolerance < 1e3))
-        throw BakeError("--refine-tolerance must be > 0, got " + std::to_string(o.refine_tolerance));
+        throw BakeError("--refine-tolerance must be > 0, got " +
+                        std::to_string(o.refine_tolerance));
     if (!(o.refine_min_edge > 0.0 && std::isfinite(o.refine_min_edge)))
-        throw BakeError("--refine-min-edge must be > 0 metres, got " + std::to_string(o.refine_min_edge));
+        throw BakeError("--refine-min-edge must be > 0 metres, got " +
+                        std::to_string(o.refine_min_edge));
 }
 
 namespace {
@@ -363,7 +374,8 @@ glm::dvec3 local_origin(const visdb::Scene& scene) {
 
 }  // namespace
 
-visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const ProgressFn& progress) {
+visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
+                 const ProgressFn& progress) {
     const glm::dvec3 origin = local_origin(scene);
     // Within a kilometre of the origin the scene's own frame is local enough
     if (glm::length(origin) < 1e3) return bake_here(scene, options, progress);
@@ -372,9 +384,9 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options, const Pr
         for (glm::dvec3& p : s.mesh.positions) p -= origin;
     visdb::Bake result = bake_here(local, options, progress);
     for (glm::dvec3& p : result.mesh.positions) p += origin;
-    result.parameters.emplace_back("local_origin", std::to_string(origin.x) + " " +
-                                                       std::to_string(origin.y) + " " +
-                                                       std::to_string(origin.z));
+    result.parameters.emplace_back(
+        "local_origin",
+        std::to_string(origin.x) + " " + std::to_string(origin.y) + " " + std::to_string(origin.z));
     return result;
 }
 
@@ -402,9 +414,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     const Hemicube hemicube(options.resolution);
     const bool exact = options.shading == Shading::Exact;
     const bool dm = options.dm;
-    const ShootOptions shoot_options{.method = options.method,
-                                     .subpixels = options.subpixels,
-                                     .occlusion = exact || dm};
+    const ShootOptions shoot_options{
+        .method = options.method, .subpixels = options.subpixels, .occlusion = exact || dm};
 
     // Shoot from every light triangle: patch irradiance per triangle; without DM, exact
     // irradiance per vertex; with DM, the shadow edges on every receiver.
@@ -449,38 +460,43 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
             // the light's centroid), completed by a conservative bounding-volume query of the
             // region between the vertex and the light: occluders that hide only part of the
             // light (penumbra) may be invisible from the centroid.
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, near_vertices.size(), 64), [&](const auto& range) {
-                std::vector<std::uint32_t> ids, listed, touched;
-                std::vector<const Patch*> occ;
-                VisibleStats vs;
-                vs.touched = &touched;
-                std::size_t missed_here = 0;
-                for (std::size_t vi = range.begin(); vi != range.end(); ++vi) {
-                    const std::uint32_t v = near_vertices[vi];
-                    const glm::dvec3 x = w.mesh.positions[v];
-                    if (glm::dot(x - light.p[0], normal) <= 0.0) continue;  // behind the light
-                    listed.clear();
-                    for (std::uint32_t k = w.incident_start[v]; k < w.incident_start[v + 1]; ++k)
-                        for (const OcclusionPair& p : shot.occluders_of(w.incident[k]))
-                            if (p.occluder != l) listed.push_back(p.occluder);
-                    std::sort(listed.begin(), listed.end());
-                    listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
-                    ids = listed;
-                    for_each_shadow_candidate(bvh, w.patches, l, x, [&](std::uint32_t id) {
-                        if (!std::binary_search(listed.begin(), listed.end(), id)) ids.push_back(id);
-                    });
-                    occ.clear();
-                    for (std::uint32_t id : ids) occ.push_back(&w.patches[id]);
-                    touched.clear();
-                    const double f = visible_form_factor(x, glm::dvec3(w.mesh.normals[v]), light, occ, &vs);
-                    for (std::uint32_t t : touched) missed_here += t >= listed.size();
-                    vert[v] = w.emittance[l] * f;
-                }
-                std::lock_guard lock(accumulate);
-                tested += vs.occluders_tested;
-                touched_total += vs.occluders_projected;
-                missed += missed_here;
-            });
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(0, near_vertices.size(), 64),
+                [&](const auto& range) {
+                    std::vector<std::uint32_t> ids, listed, touched;
+                    std::vector<const Patch*> occ;
+                    VisibleStats vs;
+                    vs.touched = &touched;
+                    std::size_t missed_here = 0;
+                    for (std::size_t vi = range.begin(); vi != range.end(); ++vi) {
+                        const std::uint32_t v = near_vertices[vi];
+                        const glm::dvec3 x = w.mesh.positions[v];
+                        if (glm::dot(x - light.p[0], normal) <= 0.0) continue;  // behind the light
+                        listed.clear();
+                        for (std::uint32_t k = w.incident_start[v]; k < w.incident_start[v + 1];
+                             ++k)
+                            for (const OcclusionPair& p : shot.occluders_of(w.incident[k]))
+                                if (p.occluder != l) listed.push_back(p.occluder);
+                        std::sort(listed.begin(), listed.end());
+                        listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
+                        ids = listed;
+                        for_each_shadow_candidate(bvh, w.patches, l, x, [&](std::uint32_t id) {
+                            if (!std::binary_search(listed.begin(), listed.end(), id))
+                                ids.push_back(id);
+                        });
+                        occ.clear();
+                        for (std::uint32_t id : ids) occ.push_back(&w.patches[id]);
+                        touched.clear();
+                        const double f =
+                            visible_form_factor(x, glm::dvec3(w.mesh.normals[v]), light, occ, &vs);
+                        for (std::uint32_t t : touched) missed_here += t >= listed.size();
+                        vert[v] = w.emittance[l] * f;
+                    }
+                    std::lock_guard lock(accumulate);
+                    tested += vs.occluders_tested;
+                    touched_total += vs.occluders_projected;
+                    missed += missed_here;
+                });
         }
         const double t_shade = seconds_since(t1);
 
@@ -492,53 +508,58 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         std::size_t receivers = 0, listed_total = 0, added_total = 0;
         const auto t2 = Clock::now();
         if (dm) {
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, near.size(), 32), [&](const auto& range) {
-                std::vector<std::pair<std::uint32_t, ShadowSegment>> here;
-                std::vector<std::uint32_t> ids;
-                std::vector<const Patch*> occ;
-                ShadowStats s;
-                std::size_t rec = 0, lis = 0, add = 0;
-                for (std::size_t ji = range.begin(); ji != range.end(); ++ji) {
-                    const std::size_t j = near[ji];
-                    if (j == l || emits(w.emittance[j])) continue;
-                    const Patch& r = w.patches[j];
-                    const glm::dvec3 rn = unit_normal(r);
-                    bool in_front = false, facing = false;
-                    for (int k = 0; k < 3; ++k) {
-                        in_front |= glm::dot(r.p[k] - light.p[0], normal) > 0.0;
-                        facing |= glm::dot(light.p[k] - r.p[0], rn) > 0.0;
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(0, near.size(), 32), [&](const auto& range) {
+                    std::vector<std::pair<std::uint32_t, ShadowSegment>> here;
+                    std::vector<std::uint32_t> ids;
+                    std::vector<const Patch*> occ;
+                    ShadowStats s;
+                    std::size_t rec = 0, lis = 0, add = 0;
+                    for (std::size_t ji = range.begin(); ji != range.end(); ++ji) {
+                        const std::size_t j = near[ji];
+                        if (j == l || emits(w.emittance[j])) continue;
+                        const Patch& r = w.patches[j];
+                        const glm::dvec3 rn = unit_normal(r);
+                        bool in_front = false, facing = false;
+                        for (int k = 0; k < 3; ++k) {
+                            in_front |= glm::dot(r.p[k] - light.p[0], normal) > 0.0;
+                            facing |= glm::dot(light.p[k] - r.p[0], rn) > 0.0;
+                        }
+                        if (!in_front || !facing) continue;
+                        ids.clear();
+                        // Only occluders whose plane separates some light and receiver points
+                        for (const OcclusionPair& p :
+                             shot.occluders_of(static_cast<std::uint32_t>(j)))
+                            if (p.occluder != l && can_occlude(w.patches[p.occluder], light, r))
+                                ids.push_back(p.occluder);
+                        const std::size_t n_listed = ids.size();
+                        // Shaft of light and receiver: the convex hull of their six corners
+                        const glm::dvec3 corners[6] = {light.p[0], light.p[1], light.p[2],
+                                                       r.p[0],     r.p[1],     r.p[2]};
+                        bvh.query(Hull(corners), [&](std::uint32_t id) {
+                            if (id != l && id != j &&
+                                std::find(ids.begin(), ids.begin() + n_listed, id) ==
+                                    ids.begin() + n_listed &&
+                                can_occlude(w.patches[id], light, r))
+                                ids.push_back(id);
+                        });
+                        if (ids.empty()) continue;
+                        ++rec;
+                        lis += n_listed;
+                        add += ids.size() - n_listed;
+                        occ.clear();
+                        for (std::uint32_t id : ids) occ.push_back(&w.patches[id]);
+                        for (const ShadowSegment& seg :
+                             shadow_edges(light, options.lights, r, occ, 1e-6, &s))
+                            here.emplace_back(static_cast<std::uint32_t>(j), seg);
                     }
-                    if (!in_front || !facing) continue;
-                    ids.clear();
-                    // Only occluders whose plane separates some light and receiver points
-                    for (const OcclusionPair& p : shot.occluders_of(static_cast<std::uint32_t>(j)))
-                        if (p.occluder != l && can_occlude(w.patches[p.occluder], light, r))
-                            ids.push_back(p.occluder);
-                    const std::size_t n_listed = ids.size();
-                    // Shaft of light and receiver: the convex hull of their six corners
-                    const glm::dvec3 corners[6] = {light.p[0], light.p[1], light.p[2], r.p[0], r.p[1], r.p[2]};
-                    bvh.query(Hull(corners), [&](std::uint32_t id) {
-                        if (id != l && id != j &&
-                            std::find(ids.begin(), ids.begin() + n_listed, id) == ids.begin() + n_listed &&
-                            can_occlude(w.patches[id], light, r))
-                            ids.push_back(id);
-                    });
-                    if (ids.empty()) continue;
-                    ++rec;
-                    lis += n_listed;
-                    add += ids.size() - n_listed;
-                    occ.clear();
-                    for (std::uint32_t id : ids) occ.push_back(&w.patches[id]);
-                    for (const ShadowSegment& seg : shadow_edges(light, options.lights, r, occ, 1e-6, &s))
-                        here.emplace_back(static_cast<std::uint32_t>(j), seg);
-                }
-                std::lock_guard lock(accumulate);
-                found.insert(found.end(), here.begin(), here.end());
-                ss += s;
-                receivers += rec;
-                listed_total += lis;
-                added_total += add;
-            });
+                    std::lock_guard lock(accumulate);
+                    found.insert(found.end(), here.begin(), here.end());
+                    ss += s;
+                    receivers += rec;
+                    listed_total += lis;
+                    added_total += add;
+                });
         }
         const double t_edges = seconds_since(t2);
 
@@ -595,15 +616,16 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                                  .resolution = options.resolution,
                                  .subpixels = options.subpixels};
         std::string label;
-        indirect = solve_indirect(input, io, [&](std::string_view stage, std::size_t shots_done,
-                                                 std::size_t total, double unshot) {
-            if (!progress) return;
-            char text[96];
-            std::snprintf(text, sizeof text, "%.*s (unshot %.3g%%)", int(stage.size()), stage.data(),
-                          100.0 * unshot);
-            label = text;
-            progress(label, shots_done, total);
-        });
+        indirect = solve_indirect(
+            input, io,
+            [&](std::string_view stage, std::size_t shots_done, std::size_t total, double unshot) {
+                if (!progress) return;
+                char text[96];
+                std::snprintf(text, sizeof text, "%.*s (unshot %.3g%%)", int(stage.size()),
+                              stage.data(), 100.0 * unshot);
+                label = text;
+                progress(label, shots_done, total);
+            });
         if (options.convergence) *options.convergence = indirect->curve;
     }
 
@@ -622,7 +644,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         // sees its constraints in one order (the mesh was nondeterministic by a few triangles)
         auto lex = [](const ShadowSegment& x, const ShadowSegment& y) {
             return std::lexicographical_compare(&x.a.x, &x.a.x + 3, &y.a.x, &y.a.x + 3) ||
-                   (x.a == y.a && std::lexicographical_compare(&x.b.x, &x.b.x + 3, &y.b.x, &y.b.x + 3));
+                   (x.a == y.a &&
+                    std::lexicographical_compare(&x.b.x, &x.b.x + 3, &y.b.x, &y.b.x + 3));
         };
         for (auto& list : segments) std::sort(list.begin(), list.end(), lex);
         std::size_t constraints = 0;
@@ -640,7 +663,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         std::size_t refine_points = 0, rounds = 0, evaluations = 0;
         double seconds_mesh = 0.0;
         for (int round = 0;; ++round) {
-            if (progress) progress("mesh", std::size_t(round), std::size_t(options.refine_rounds) + 1);
+            if (progress)
+                progress("mesh", std::size_t(round), std::size_t(options.refine_rounds) + 1);
             const auto tm = Clock::now();
             DmStats st;
             const std::vector<MeshedRegion> meshed = mesh_regions(regions.planar, dm_options, &st);
@@ -664,7 +688,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                         continue;
                     }
                     h[v] = exact_irradiance(w, bvh, lights, mesh.positions[v],
-                                            regions.planar[vertex_region[v]].normal, occ, options.reach);
+                                            regions.planar[vertex_region[v]].normal, occ,
+                                            options.reach);
                     fresh[v] = 1;
                 }
             });
@@ -681,7 +706,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
             const double floor = 1e-3 * h_max;
             std::vector<std::uint32_t> region_start(meshed.size() + 1, 0);
             for (std::size_t r = 0; r < meshed.size(); ++r)
-                region_start[r + 1] = region_start[r] + static_cast<std::uint32_t>(meshed[r].positions.size());
+                region_start[r + 1] =
+                    region_start[r] + static_cast<std::uint32_t>(meshed[r].positions.size());
             std::vector<std::vector<glm::dvec3>> split(meshed.size());
             // Midpoints evaluated this round, cached like vertices: an edge that stays unsplit
             // keeps its midpoint's bits, so later rounds look it up instead of re-evaluating
@@ -692,7 +718,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                 std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
                 for (const glm::u32vec3& t : m.triangles)
                     for (int k = 0; k < 3; ++k)
-                        edges.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+                        edges.emplace_back(std::min(t[k], t[(k + 1) % 3]),
+                                           std::max(t[k], t[(k + 1) % 3]));
                 std::sort(edges.begin(), edges.end());
                 edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
                 std::vector<const Patch*> occ;
@@ -701,10 +728,12 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                     const glm::dvec3 pa = m.positions[a], pb = m.positions[b];
                     if (glm::length(pb - pa) < options.refine_min_edge) continue;
                     // Canonical midpoint: the same bits from either region sharing the edge
-                    const glm::dvec3 mid = std::lexicographical_compare(&pa.x, &pa.x + 3, &pb.x, &pb.x + 3)
-                                               ? pa + 0.5 * (pb - pa)
-                                               : pb + 0.5 * (pa - pb);
-                    const visdb::Rgb linear = 0.5 * (h[region_start[r] + a] + h[region_start[r] + b]);
+                    const glm::dvec3 mid =
+                        std::lexicographical_compare(&pa.x, &pa.x + 3, &pb.x, &pb.x + 3)
+                            ? pa + 0.5 * (pb - pa)
+                            : pb + 0.5 * (pa - pb);
+                    const visdb::Rgb linear =
+                        0.5 * (h[region_start[r] + a] + h[region_start[r] + b]);
                     const PointKey key = key_of(static_cast<std::uint32_t>(r), mid);
                     const auto hit = cache.find(key);
                     visdb::Rgb at_mid;
@@ -715,7 +744,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                         evaluated[r].emplace_back(key, at_mid);
                     }
                     const double diff = mean(glm::abs(at_mid - linear));
-                    if (diff > floor && diff > options.refine_tolerance * std::max(mean(at_mid), mean(linear)))
+                    if (diff > floor &&
+                        diff > options.refine_tolerance * std::max(mean(at_mid), mean(linear)))
                         split[r].push_back(mid);
                 }
             });
@@ -741,11 +771,13 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
         } else {
             // Patch shading on the new mesh: shoot again from every light onto its triangles
             std::vector<visdb::Rgb> tri(target.mesh.triangles.size(), visdb::Rgb(0.0));
-            const ShootOptions so{.method = options.method, .subpixels = options.subpixels, .occlusion = false};
+            const ShootOptions so{
+                .method = options.method, .subpixels = options.subpixels, .occlusion = false};
             tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
                 const std::uint32_t l = lights[li];
                 // The light's own pieces lie in the shooter's plane and receive nothing
-                const ShootResult shot = shoot(frame_of(w.patches[l]), target.patches, hemicube, so);
+                const ShootResult shot =
+                    shoot(frame_of(w.patches[l]), target.patches, hemicube, so);
                 std::vector<visdb::Rgb> mine(tri.size(), visdb::Rgb(0.0));
                 add_patch_irradiance(shot, w.emittance[l], w.area[l], target, mine);
                 std::lock_guard lock(accumulate);
@@ -753,24 +785,25 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
             });
             vert_irradiance = average_to_vertices(target, tri);
         }
-        dm_statistics = {{"dm_regions", double(regions.planar.size())},
-                         {"dm_triangles_before", double(nt)},
-                         {"dm_shadow_receivers", double(shadow_receivers)},
-                         {"dm_shadow_occluders_listed", double(shadow_occluders_listed)},
-                         {"dm_shadow_occluders_added_by_bvh", double(shadow_occluders_added)},
-                         {"dm_shadow_edges_projected", double(shadow_stats.edges_projected)},
-                         {"dm_shadow_shared_edges_skipped", double(shadow_stats.shared_edges_skipped)},
-                         {"dm_shadow_segments_split", double(shadow_stats.segments_split)},
-                         {"dm_shadow_segments", double(constraints)},
-                         {"dm_constraints_dropped", double(dm_stats.constraints_dropped)},
-                         {"dm_points_merged", double(dm_stats.points_merged)},
-                         {"dm_conformity_points", double(dm_stats.conformity_points)},
-                         {"dm_refine_points", double(refine_points)},
-                         {"dm_rounds", double(rounds)},
-                         {"dm_exact_evaluations", double(evaluations)},
-                         {"seconds_shadow_edges_cpu", seconds_edges},
-                         {"seconds_mesh", seconds_mesh},
-                         {"seconds_dm", seconds_since(t_dm)}};
+        dm_statistics = {
+            {"dm_regions", double(regions.planar.size())},
+            {"dm_triangles_before", double(nt)},
+            {"dm_shadow_receivers", double(shadow_receivers)},
+            {"dm_shadow_occluders_listed", double(shadow_occluders_listed)},
+            {"dm_shadow_occluders_added_by_bvh", double(shadow_occluders_added)},
+            {"dm_shadow_edges_projected", double(shadow_stats.edges_projected)},
+            {"dm_shadow_shared_edges_skipped", double(shadow_stats.shared_edges_skipped)},
+            {"dm_shadow_segments_split", double(shadow_stats.segments_split)},
+            {"dm_shadow_segments", double(constraints)},
+            {"dm_constraints_dropped", double(dm_stats.constraints_dropped)},
+            {"dm_points_merged", double(dm_stats.points_merged)},
+            {"dm_conformity_points", double(dm_stats.conformity_points)},
+            {"dm_refine_points", double(refine_points)},
+            {"dm_rounds", double(rounds)},
+            {"dm_exact_evaluations", double(evaluations)},
+            {"seconds_shadow_edges_cpu", seconds_edges},
+            {"seconds_mesh", seconds_mesh},
+            {"seconds_dm", seconds_since(t_dm)}};
     }
 
     // Radiosity B = E + ρH at each vertex (material of its first triangle: all of a vertex's
@@ -796,17 +829,17 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     visdb::Bake result;
     result.name = options.name;
     result.unit = scene.emittance_unit == "lm/m2" ? "lux" : "W/m2";
-    result.parameters = {{"method", to_string(options.method)},
-                         {"resolution", std::to_string(options.resolution)},
-                         {"subpixels", options.method == Visibility::ABuffer
-                                           ? std::to_string(options.subpixels)
-                                           : std::string("1")},
-                         {"bounces", options.bounces < 0 ? std::string("converge")
-                                                         : std::to_string(options.bounces)},
-                         {"shading", to_string(options.shading)},
-                         {"dm", dm ? "on" : "off"},
-                         {"lights", to_string(options.lights)},
-                         {"threads", std::to_string(options.threads)}};
+    result.parameters = {
+        {"method", to_string(options.method)},
+        {"resolution", std::to_string(options.resolution)},
+        {"subpixels", options.method == Visibility::ABuffer ? std::to_string(options.subpixels)
+                                                            : std::string("1")},
+        {"bounces",
+         options.bounces < 0 ? std::string("converge") : std::to_string(options.bounces)},
+        {"shading", to_string(options.shading)},
+        {"dm", dm ? "on" : "off"},
+        {"lights", to_string(options.lights)},
+        {"threads", std::to_string(options.threads)}};
     if (options.reach > 0.0) result.parameters.emplace_back("reach", std::to_string(options.reach));
     if (options.bounces != 0) {
         if (options.bounces < 0) {
@@ -819,7 +852,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     if (dm) {
         result.parameters.emplace_back("dm_angle", std::to_string(options.dm_min_angle));
         result.parameters.emplace_back("refine_rounds", std::to_string(options.refine_rounds));
-        result.parameters.emplace_back("refine_tolerance", std::to_string(options.refine_tolerance));
+        result.parameters.emplace_back("refine_tolerance",
+                                       std::to_string(options.refine_tolerance));
         result.parameters.emplace_back("refine_min_edge", std::to_string(options.refine_min_edge));
     }
     result.statistics = {{"triangles", double(mesh.triangles.size())},

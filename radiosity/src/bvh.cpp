@@ -4,11 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
-
-#include <glm/geometric.hpp>
-
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <numeric>
 
 namespace abrad::radiosity {
 
@@ -48,12 +46,14 @@ Hull::Hull(std::span<const glm::dvec3> points) {
                 auto add = [&](const glm::dvec3& nn, double dd) {
                     // The same face seen through another triple of its points: keep one
                     for (int i = 0; i < m_count; ++i)
-                        if (glm::dot(m_planes[i].n, nn) > 1.0 - 1e-12 && std::abs(m_planes[i].d - (dd + eps)) <= eps)
+                        if (glm::dot(m_planes[i].n, nn) > 1.0 - 1e-12 &&
+                            std::abs(m_planes[i].d - (dd + eps)) <= eps)
                             return;
-                    if (m_count < static_cast<int>(m_planes.size())) m_planes[m_count++] = {nn, dd + eps};
+                    if (m_count < static_cast<int>(m_planes.size()))
+                        m_planes[m_count++] = {nn, dd + eps};
                 };
-                if (hi <= eps) add(nrm, d0);           // all below: outward normal +nrm
-                if (lo >= -eps) add(-nrm, -d0);        // all above (or flat: both sides)
+                if (hi <= eps) add(nrm, d0);     // all below: outward normal +nrm
+                if (lo >= -eps) add(-nrm, -d0);  // all above (or flat: both sides)
             }
 }
 
@@ -91,8 +91,9 @@ void Bvh::build(std::uint32_t self, std::uint32_t begin, std::uint32_t end, int 
     const glm::dvec3 ext = centres.hi - centres.lo;
     const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
     const std::uint32_t mid = begin + (end - begin) / 2;
-    std::nth_element(m_order.begin() + begin, m_order.begin() + mid, m_order.begin() + end,
-                     [&](std::uint32_t a, std::uint32_t b) { return m_centres[a][axis] < m_centres[b][axis]; });
+    std::nth_element(
+        m_order.begin() + begin, m_order.begin() + mid, m_order.begin() + end,
+        [&](std::uint32_t a, std::uint32_t b) { return m_centres[a][axis] < m_centres[b][axis]; });
     const auto left = static_cast<std::uint32_t>(m_nodes.size());
     m_nodes[self].first = left;
     m_nodes[self].count = 0;

@@ -3,7 +3,6 @@
 #include "abrad/radiosity/cull.h"
 
 #include <algorithm>
-
 #include <glm/geometric.hpp>
 
 namespace abrad::radiosity {

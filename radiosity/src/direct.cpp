@@ -3,7 +3,6 @@
 #include "abrad/radiosity/direct.h"
 
 #include <cmath>
-
 #include <glm/geometric.hpp>
 
 #include "abrad/radiosity/bake.h"
@@ -17,13 +16,16 @@ std::vector<Patch> scene_patches(const visdb::Scene& scene, std::vector<visdb::R
     std::vector<Patch> patches;
     for (const visdb::Surface& s : scene.surfaces) {
         if (s.material >= scene.materials.size())
-            throw BakeError("surface '" + s.name + "' has no material " + std::to_string(s.material));
+            throw BakeError("surface '" + s.name + "' has no material " +
+                            std::to_string(s.material));
         const visdb::Material& m = scene.materials[s.material];
         for (const glm::u32vec3& t : s.mesh.triangles) {
-            const Patch p{{s.mesh.positions.at(t.x), s.mesh.positions.at(t.y), s.mesh.positions.at(t.z)},
-                          m.opacity};
+            const Patch p{
+                {s.mesh.positions.at(t.x), s.mesh.positions.at(t.y), s.mesh.positions.at(t.z)},
+                m.opacity};
             const double area2 = glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]));
-            if (!(area2 > 0.0) || !std::isfinite(area2)) continue;  // degenerate: sees and hides nothing
+            if (!(area2 > 0.0) || !std::isfinite(area2))
+                continue;  // degenerate: sees and hides nothing
             patches.push_back(p);
             emittance.push_back(m.emittance);
         }

@@ -17,20 +17,6 @@
 
 #include "abrad/radiosity/dm_mesh.h"
 
-#include <algorithm>
-#include <bit>
-#include <cmath>
-#include <cstdint>
-#include <stdexcept>
-#include <string>
-#include <set>
-#include <unordered_map>
-#include <unordered_set>
-#include <utility>
-
-#include <glm/geometric.hpp>
-#include <tbb/parallel_for.h>
-
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Constrained_triangulation_plus_2.h>
 #include <CGAL/Delaunay_mesh_face_base_2.h>
@@ -41,6 +27,19 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <glm/geometric.hpp>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
 
 namespace abrad::radiosity {
 namespace {
@@ -75,11 +74,13 @@ using Vb1 = CGAL::Triangulation_vertex_base_with_info_2<VInfo, KE>;
 using Fb1i = CGAL::Triangulation_face_base_with_info_2<FInfo, KE>;
 using Fb1 = CGAL::Constrained_triangulation_face_base_2<KE, Fb1i>;
 using Tds1 = CGAL::Triangulation_data_structure_2<Vb1, Fb1>;
-using Cdt1Base = CGAL::Constrained_Delaunay_triangulation_2<KE, Tds1, CGAL::Exact_intersections_tag>;
+using Cdt1Base =
+    CGAL::Constrained_Delaunay_triangulation_2<KE, Tds1, CGAL::Exact_intersections_tag>;
 using Cdt1 = CGAL::Constrained_triangulation_plus_2<Cdt1Base>;
 
 // Triangulation that is refined: its constraints no longer cross (they are the edges of a Cdt1).
-using Vb2 = CGAL::Triangulation_vertex_base_with_info_2<VInfo, K, CGAL::Delaunay_mesh_vertex_base_2<K>>;
+using Vb2 =
+    CGAL::Triangulation_vertex_base_with_info_2<VInfo, K, CGAL::Delaunay_mesh_vertex_base_2<K>>;
 using Fb2 = CGAL::Delaunay_mesh_face_base_2<K>;
 using Tds2 = CGAL::Triangulation_data_structure_2<Vb2, Fb2>;
 using Cdt2 = CGAL::Constrained_Delaunay_triangulation_2<K, Tds2, CGAL::Exact_predicates_tag>;
@@ -119,7 +120,8 @@ struct PosKeyHash {
 using PosSet = std::unordered_set<PosKey, PosKeyHash>;
 
 /// Parameter of the closest point of segment [a, b] to p, and the squared distance to it.
-std::pair<double, double> closest_on_segment(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b) {
+std::pair<double, double> closest_on_segment(const glm::dvec3& p, const glm::dvec3& a,
+                                             const glm::dvec3& b) {
     const glm::dvec3 d = b - a;
     const double dd = glm::dot(d, d);
     double t = dd > 0.0 ? glm::dot(p - a, d) / dd : 0.0;
@@ -147,13 +149,13 @@ struct Box {
         hi += glm::dvec3(r);
     }
     bool overlaps(const Box& b) const {
-        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y && lo.z <= b.hi.z &&
-               b.lo.z <= hi.z;
+        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
+               lo.z <= b.hi.z && b.lo.z <= hi.z;
     }
 };
 
 class Bvh {
-public:
+  public:
     explicit Bvh(std::vector<Box> boxes) : m_boxes(std::move(boxes)) {
         m_items.resize(m_boxes.size());
         for (std::size_t i = 0; i < m_items.size(); ++i) m_items[i] = static_cast<std::uint32_t>(i);
@@ -180,7 +182,7 @@ public:
         }
     }
 
-private:
+  private:
     struct Node {
         Box box;
         std::uint32_t first = 0;  ///< first item (leaf) or first child (inner)
@@ -270,13 +272,14 @@ struct Vtx {
 struct RegionState {
     std::vector<Vtx> verts;
     std::vector<std::uint32_t> input_id;                  ///< input vertex -> verts index
-    std::vector<std::array<std::uint32_t, 2>> segments;  ///< non-boundary constraints
+    std::vector<std::array<std::uint32_t, 2>> segments;   ///< non-boundary constraints
     std::vector<std::vector<std::uint32_t>> edge_splits;  ///< per boundary edge: verts on it
 };
 
 struct RegionSetup {
     Frame frame;
-    std::vector<std::array<std::uint32_t, 2>> boundary;  ///< input vertex pairs used an odd number of times
+    std::vector<std::array<std::uint32_t, 2>>
+        boundary;  ///< input vertex pairs used an odd number of times
 };
 
 struct LocalStats {
@@ -307,8 +310,10 @@ std::vector<std::uint32_t> insertion_order(const std::vector<Vtx>& verts) {
     };
     std::vector<std::pair<std::uint32_t, std::uint32_t>> keyed(verts.size());
     for (std::size_t i = 0; i < verts.size(); ++i) {
-        const auto qx = static_cast<std::uint32_t>(std::clamp((verts[i].p.x - b.lo.x) * s, 0.0, 65535.0));
-        const auto qy = static_cast<std::uint32_t>(std::clamp((verts[i].p.y - b.lo.y) * s, 0.0, 65535.0));
+        const auto qx =
+            static_cast<std::uint32_t>(std::clamp((verts[i].p.x - b.lo.x) * s, 0.0, 65535.0));
+        const auto qy =
+            static_cast<std::uint32_t>(std::clamp((verts[i].p.y - b.lo.y) * s, 0.0, 65535.0));
         keyed[i] = {spread(qx) | (spread(qy) << 1), static_cast<std::uint32_t>(i)};
     }
     std::sort(keyed.begin(), keyed.end());
@@ -322,8 +327,8 @@ std::vector<std::uint32_t> insertion_order(const std::vector<Vtx>& verts) {
 template <class Cdt, class InDomain, class IsSegment>
 MeshRun collect(const Cdt& cdt, const Frame& frame, const RegionState& in,
                 const std::vector<typename Cdt::Vertex_handle>& vh,
-                const std::vector<std::vector<typename Cdt::Vertex_handle>>& chains, InDomain in_domain,
-                IsSegment is_segment) {
+                const std::vector<std::vector<typename Cdt::Vertex_handle>>& chains,
+                InDomain in_domain, IsSegment is_segment) {
     using Vh = typename Cdt::Vertex_handle;
     MeshRun run;
     std::unordered_map<Vh, std::uint32_t> new_id;
@@ -346,22 +351,26 @@ MeshRun collect(const Cdt& cdt, const Frame& frame, const RegionState& in,
     // Inside faces, counter-clockwise in the frame = counter-clockwise seen from the normal
     for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
         if (!in_domain(f)) continue;
-        run.out.triangles.push_back(glm::u32vec3(id_of(f->vertex(0)), id_of(f->vertex(1)), id_of(f->vertex(2))));
+        run.out.triangles.push_back(
+            glm::u32vec3(id_of(f->vertex(0)), id_of(f->vertex(1)), id_of(f->vertex(2))));
     }
     // Every input vertex is kept, even one no inside face uses
     run.next.input_id.resize(in.input_id.size());
-    for (std::size_t i = 0; i < in.input_id.size(); ++i) run.next.input_id[i] = id_of(vh[in.input_id[i]]);
+    for (std::size_t i = 0; i < in.input_id.size(); ++i)
+        run.next.input_id[i] = id_of(vh[in.input_id[i]]);
 
     // Constraints that are not part of the boundary, between kept vertices
     for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
         if (!cdt.is_constrained(*e) || !is_segment(*e)) continue;
         const Vh a = e->first->vertex(cdt.cw(e->second)), b = e->first->vertex(cdt.ccw(e->second));
         auto ia = new_id.find(a), ib = new_id.find(b);
-        if (ia != new_id.end() && ib != new_id.end()) run.next.segments.push_back({ia->second, ib->second});
+        if (ia != new_id.end() && ib != new_id.end())
+            run.next.segments.push_back({ia->second, ib->second});
     }
     run.next.edge_splits.resize(chains.size());
     for (std::size_t e = 0; e < chains.size(); ++e) {
-        for (std::size_t k = 1; k + 1 < chains[e].size(); ++k) run.next.edge_splits[e].push_back(id_of(chains[e][k]));
+        for (std::size_t k = 1; k + 1 < chains[e].size(); ++k)
+            run.next.edge_splits[e].push_back(id_of(chains[e][k]));
     }
 
     run.out.positions.reserve(run.next.verts.size());
@@ -374,10 +383,11 @@ MeshRun collect(const Cdt& cdt, const Frame& frame, const RegionState& in,
 }
 
 /// Walks the constrained edges of cdt from a to b (along the straight segment a-b).
-std::vector<Cdt2::Vertex_handle> walk_constrained(const Cdt2& cdt, Cdt2::Vertex_handle a, Cdt2::Vertex_handle b) {
+std::vector<Cdt2::Vertex_handle> walk_constrained(const Cdt2& cdt, Cdt2::Vertex_handle a,
+                                                  Cdt2::Vertex_handle b) {
     std::vector<Cdt2::Vertex_handle> path{a};
     const Vec2 pa{CGAL::to_double(a->point().x()), CGAL::to_double(a->point().y())},
-               pb{CGAL::to_double(b->point().x()), CGAL::to_double(b->point().y())};
+        pb{CGAL::to_double(b->point().x()), CGAL::to_double(b->point().y())};
     const Vec2 d = pb - pa;
     const double dd = dot2(d, d);
     Cdt2::Vertex_handle cur = a;
@@ -397,7 +407,8 @@ std::vector<Cdt2::Vertex_handle> walk_constrained(const Cdt2& cdt, Cdt2::Vertex_
             const Vec2 pw{CGAL::to_double(w->point().x()), CGAL::to_double(w->point().y())};
             const double t = dot2(pw - pa, d) / dd;
             if (t <= t_cur || t >= 1.0) continue;
-            const Vec2 step = pw - Vec2{CGAL::to_double(cur->point().x()), CGAL::to_double(cur->point().y())};
+            const Vec2 step =
+                pw - Vec2{CGAL::to_double(cur->point().x()), CGAL::to_double(cur->point().y())};
             const double s = std::abs(cross2(step, d)) / (len2(step) * std::sqrt(dd));
             if (s < best_sin) {
                 best_sin = s;
@@ -435,7 +446,8 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
     std::unordered_set<const void*> boundary_ids;
     std::vector<std::vector<Cdt1::Constraint_id>> pieces(setup.boundary.size());
     for (std::size_t e = 0; e < setup.boundary.size(); ++e) {
-        const std::uint32_t a = in.input_id[setup.boundary[e][0]], b = in.input_id[setup.boundary[e][1]];
+        const std::uint32_t a = in.input_id[setup.boundary[e][0]],
+                            b = in.input_id[setup.boundary[e][1]];
         const Vec2 pa = in.verts[a].p, d = in.verts[b].p - pa;
         std::vector<std::pair<double, std::uint32_t>> line;
         for (std::uint32_t s : in.edge_splits[e]) line.push_back({dot2(in.verts[s].p - pa, d), s});
@@ -502,7 +514,8 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
 
     if (!(min_angle_deg > 0.0) || cdt.dimension() < 2) {
         return collect(
-            cdt, frame, in, vh, chains, [](Cdt1::Face_handle f) { return f->info().parity == 1; }, is_segment);
+            cdt, frame, in, vh, chains, [](Cdt1::Face_handle f) { return f->info().parity == 1; },
+            is_segment);
     }
 
     // Refinement: copy vertices and constrained edges into a CDT the mesher accepts
@@ -517,10 +530,13 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
         to2.emplace(v, w);
     }
     std::set<std::pair<Cdt2::Vertex_handle, Cdt2::Vertex_handle>> toggle_edges, segment_edges;
-    auto edge_key = [](Cdt2::Vertex_handle a, Cdt2::Vertex_handle b) { return a < b ? std::pair(a, b) : std::pair(b, a); };
+    auto edge_key = [](Cdt2::Vertex_handle a, Cdt2::Vertex_handle b) {
+        return a < b ? std::pair(a, b) : std::pair(b, a);
+    };
     for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
         if (!cdt.is_constrained(*e)) continue;
-        const auto a = to2.at(e->first->vertex(cdt.cw(e->second))), b = to2.at(e->first->vertex(cdt.ccw(e->second)));
+        const auto a = to2.at(e->first->vertex(cdt.cw(e->second))),
+                   b = to2.at(e->first->vertex(cdt.ccw(e->second)));
         cdt2.insert_constraint(a, b);
         if (toggles(e->first, e->second)) toggle_edges.insert(edge_key(a, b));
     }
@@ -543,7 +559,8 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
                 if (!seen.insert(g).second) continue;
                 bool t = false;
                 if (f->is_constrained(i))
-                    t = toggle_edges.count(edge_key(f->vertex(cdt2.cw(i)), f->vertex(cdt2.ccw(i)))) > 0;
+                    t = toggle_edges.count(
+                            edge_key(f->vertex(cdt2.cw(i)), f->vertex(cdt2.ccw(i)))) > 0;
                 queue.push_back({g, inside != t});
             }
         }
@@ -559,7 +576,8 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
     for (std::size_t e = 0; e < chains.size(); ++e) {
         chains2[e].push_back(to2.at(chains[e].front()));
         for (std::size_t k = 1; k < chains[e].size(); ++k) {
-            const auto path = walk_constrained(cdt2, to2.at(chains[e][k - 1]), to2.at(chains[e][k]));
+            const auto path =
+                walk_constrained(cdt2, to2.at(chains[e][k - 1]), to2.at(chains[e][k]));
             for (std::size_t j = 1; j < path.size(); ++j) {
                 boundary_edges.insert(edge_key(path[j - 1], path[j]));
                 chains2[e].push_back(path[j]);
@@ -581,7 +599,7 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
 
 /// Uniform grid hash over 2D points, cell = merge distance.
 class PointGrid {
-public:
+  public:
     explicit PointGrid(double cell) : m_inv(1.0 / cell) {}
     void add(Vec2 p, std::uint32_t id) { m_cells[key(cell_of(p.x), cell_of(p.y))].push_back(id); }
     template <class F>
@@ -595,10 +613,13 @@ public:
             }
     }
 
-private:
-    std::int64_t cell_of(double x) const { return static_cast<std::int64_t>(std::floor(x * m_inv)); }
+  private:
+    std::int64_t cell_of(double x) const {
+        return static_cast<std::int64_t>(std::floor(x * m_inv));
+    }
     static std::uint64_t key(std::int64_t x, std::int64_t y) {
-        return static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(y);
+        return static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
+               static_cast<std::uint64_t>(y);
     }
     double m_inv;
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> m_cells;
@@ -610,8 +631,9 @@ struct SplitHit {
     glm::dvec3 pos;
 };
 
-RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, const std::vector<SplitHit>& hits,
-                          double h, LocalStats& stats, PosSet& announced) {
+RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
+                          const std::vector<SplitHit>& hits, double h, LocalStats& stats,
+                          PosSet& announced) {
     const Frame& frame = setup.frame;
     RegionState st;
     st.edge_splits.resize(setup.boundary.size());
@@ -620,7 +642,8 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, 
     // Input vertices
     Box bounds;
     for (std::size_t i = 0; i < region.positions.size(); ++i) {
-        Vtx x{frame.project(region.positions[i]), region.positions[i], static_cast<std::uint32_t>(i)};
+        Vtx x{frame.project(region.positions[i]), region.positions[i],
+              static_cast<std::uint32_t>(i)};
         st.input_id.push_back(static_cast<std::uint32_t>(st.verts.size()));
         by_pos.try_emplace(key_of(x.pos), static_cast<std::uint32_t>(st.verts.size()));
         bounds.add(glm::dvec3(x.p.x, x.p.y, 0.0));
@@ -635,20 +658,23 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, 
         if (std::find(s.begin(), s.end(), id) == s.end()) s.push_back(id);
     };
     for (const SplitHit& hit : hits) {
-        auto [it, fresh] = by_pos.try_emplace(key_of(hit.pos), static_cast<std::uint32_t>(st.verts.size()));
+        auto [it, fresh] =
+            by_pos.try_emplace(key_of(hit.pos), static_cast<std::uint32_t>(st.verts.size()));
         if (fresh) st.verts.push_back({frame.project(hit.pos), hit.pos, kNewVertex});
         add_split(hit.edge, it->second);
     }
     for (const Vtx& x : st.verts) announced.insert(key_of(x.pos));
 
     PointGrid grid(cell);
-    for (std::size_t i = 0; i < st.verts.size(); ++i) grid.add(st.verts[i].p, static_cast<std::uint32_t>(i));
+    for (std::size_t i = 0; i < st.verts.size(); ++i)
+        grid.add(st.verts[i].p, static_cast<std::uint32_t>(i));
 
     // 2D boundary edges and triangles, for snapping and clipping
     std::vector<Box> edge_boxes, tri_boxes;
     for (const auto& e : setup.boundary) {
         Box b;
-        for (std::uint32_t k : e) b.add(glm::dvec3(st.verts[st.input_id[k]].p.x, st.verts[st.input_id[k]].p.y, 0.0));
+        for (std::uint32_t k : e)
+            b.add(glm::dvec3(st.verts[st.input_id[k]].p.x, st.verts[st.input_id[k]].p.y, 0.0));
         b.grow(h);
         edge_boxes.push_back(b);
     }
@@ -705,7 +731,8 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, 
             const std::uint32_t ia = st.input_id[setup.boundary[nearest][0]];
             const std::uint32_t ib = st.input_id[setup.boundary[nearest][1]];
             const Vec2 q = st.verts[ia].p + nearest_t * (st.verts[ib].p - st.verts[ia].p);
-            const glm::dvec3 pos = st.verts[ia].pos + nearest_t * (st.verts[ib].pos - st.verts[ia].pos);
+            const glm::dvec3 pos =
+                st.verts[ia].pos + nearest_t * (st.verts[ib].pos - st.verts[ia].pos);
             st.verts.push_back({q, pos, kNewVertex});
             for (std::uint32_t e : on_edges) add_split(e, id);
             ++stats.merged;
@@ -717,7 +744,7 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, 
     };
 
     // Edge functions of a 2D input triangle, counter-clockwise, widened by h
-    auto tri_corners = [&](std::size_t t, Vec2 (&c)[3]) {
+    auto tri_corners = [&](std::size_t t, Vec2(&c)[3]) {
         for (int k = 0; k < 3; ++k) c[k] = st.verts[region.triangles[t][k]].p;
         const double area = cross2(c[1] - c[0], c[2] - c[0]);
         if (area < 0.0) std::swap(c[1], c[2]);
@@ -796,12 +823,14 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, 
     // Route each segment through the vertices within h of its interior: a constraint passing a
     // vertex at 1e-17 would otherwise leave a zero-area sliver with that vertex on its edge
     std::vector<Box> vertex_boxes(st.verts.size());
-    for (std::size_t i = 0; i < st.verts.size(); ++i) vertex_boxes[i].add(glm::dvec3(st.verts[i].p.x, st.verts[i].p.y, 0.0));
+    for (std::size_t i = 0; i < st.verts.size(); ++i)
+        vertex_boxes[i].add(glm::dvec3(st.verts[i].p.x, st.verts[i].p.y, 0.0));
     const Bvh vertex_bvh(std::move(vertex_boxes));
     std::vector<std::array<std::uint32_t, 2>> routed;
     seen_segments.clear();
     auto add_piece = [&](std::uint32_t v0, std::uint32_t v1) {
-        if (v0 != v1 && seen_segments.insert({std::min(v0, v1), std::max(v0, v1)}).second) routed.push_back({v0, v1});
+        if (v0 != v1 && seen_segments.insert({std::min(v0, v1), std::max(v0, v1)}).second)
+            routed.push_back({v0, v1});
     };
     for (const auto& [v0, v1] : st.segments) {
         const Vec2 a = st.verts[v0].p, d = st.verts[v1].p - a;
@@ -813,7 +842,8 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, 
             vertex_bvh.query(box_around(c0, c1, h), [&](std::uint32_t id) {
                 if (id == v0 || id == v1) return;
                 const double t = dot2(st.verts[id].p - a, d) / dd;
-                if (t > 0.0 && t < 1.0 && len2(a + t * d - st.verts[id].p) <= h) on.push_back({t, id});
+                if (t > 0.0 && t < 1.0 && len2(a + t * d - st.verts[id].p) <= h)
+                    on.push_back({t, id});
             });
         }
         std::sort(on.begin(), on.end());
@@ -831,14 +861,16 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup, 
 
 }  // namespace
 
-std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, const DmOptions& options,
-                                       DmStats* stats) {
+std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
+                                       const DmOptions& options, DmStats* stats) {
     // Check the options and the regions
     if (!(options.min_angle_deg >= 0.0 && options.min_angle_deg <= 20.7))
-        throw std::invalid_argument("mesh_regions: min_angle_deg " + std::to_string(options.min_angle_deg) +
+        throw std::invalid_argument("mesh_regions: min_angle_deg " +
+                                    std::to_string(options.min_angle_deg) +
                                     " is outside [0, 20.7]");
     if (!(options.merge_distance >= 0.0) || !std::isfinite(options.merge_distance))
-        throw std::invalid_argument("mesh_regions: merge_distance " + std::to_string(options.merge_distance) +
+        throw std::invalid_argument("mesh_regions: merge_distance " +
+                                    std::to_string(options.merge_distance) +
                                     " must be finite and >= 0");
     const double h = options.merge_distance;
     DmStats total;
@@ -848,15 +880,17 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, co
         const PlanarRegion& region = regions[r];
         const std::string where = "mesh_regions: region " + std::to_string(r);
         const double nl = glm::length(region.normal);
-        if (!std::isfinite(nl) || !(nl > 0.0)) throw std::invalid_argument(where + ": zero or non-finite normal");
+        if (!std::isfinite(nl) || !(nl > 0.0))
+            throw std::invalid_argument(where + ": zero or non-finite normal");
         for (const glm::dvec3& p : region.positions)
             if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
                 throw std::invalid_argument(where + ": non-finite vertex position");
         for (const glm::u32vec3& t : region.triangles)
             for (int k = 0; k < 3; ++k)
                 if (t[k] >= region.positions.size())
-                    throw std::invalid_argument(where + ": triangle index " + std::to_string(t[k]) + " out of range (" +
-                                                std::to_string(region.positions.size()) + " positions)");
+                    throw std::invalid_argument(
+                        where + ": triangle index " + std::to_string(t[k]) + " out of range (" +
+                        std::to_string(region.positions.size()) + " positions)");
         total.triangles_in += region.triangles.size();
         total.constraints_in += region.constraints.size();
         if (region.triangles.empty()) continue;
@@ -872,8 +906,8 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, co
             }
         for (const auto& [key, c] : count)
             if (c % 2 == 1)
-                setups[r].boundary.push_back(
-                    {static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key & 0xFFFFFFFFu)});
+                setups[r].boundary.push_back({static_cast<std::uint32_t>(key >> 32),
+                                              static_cast<std::uint32_t>(key & 0xFFFFFFFFu)});
         std::sort(setups[r].boundary.begin(), setups[r].boundary.end());
     }
 
@@ -929,7 +963,8 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, co
         tbb::parallel_for(std::size_t{0}, dirty.size(), [&](std::size_t k) {
             const std::size_t r = dirty[k];
             if (round == 0) {
-                states[r] = build_initial(regions[r], setups[r], hits[r], h, local[r], announced[r]);
+                states[r] =
+                    build_initial(regions[r], setups[r], hits[r], h, local[r], announced[r]);
             } else {
                 // Add the neighbours' boundary vertices as split points
                 RegionState& st = states[r];
@@ -937,8 +972,10 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, co
                 for (std::size_t i = 0; i < st.verts.size(); ++i)
                     by_pos.try_emplace(key_of(st.verts[i].pos), static_cast<std::uint32_t>(i));
                 for (const SplitHit& hit : pending[r]) {
-                    auto [it, fresh] = by_pos.try_emplace(key_of(hit.pos), static_cast<std::uint32_t>(st.verts.size()));
-                    if (fresh) st.verts.push_back({setups[r].frame.project(hit.pos), hit.pos, kNewVertex});
+                    auto [it, fresh] = by_pos.try_emplace(
+                        key_of(hit.pos), static_cast<std::uint32_t>(st.verts.size()));
+                    if (fresh)
+                        st.verts.push_back({setups[r].frame.project(hit.pos), hit.pos, kNewVertex});
                     const std::uint32_t id = it->second;
                     auto& s = st.edge_splits[hit.edge];
                     if (std::find(s.begin(), s.end(), id) == s.end()) s.push_back(id);
@@ -985,7 +1022,8 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, co
         // Round-0 split points that came from other regions' vertices are conformity points
         PosSet own;
         for (const glm::dvec3& p : regions[r].positions) own.insert(key_of(p));
-        for (const SplitHit& hit : hits[r]) total.conformity_points += own.count(key_of(hit.pos)) == 0 ? 1 : 0;
+        for (const SplitHit& hit : hits[r])
+            total.conformity_points += own.count(key_of(hit.pos)) == 0 ? 1 : 0;
     }
     if (stats) *stats = total;
     return outputs;

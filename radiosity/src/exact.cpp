@@ -4,9 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
-
 #include <glm/geometric.hpp>
+#include <vector>
 
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/radiosity/polygon.h"
@@ -90,12 +89,10 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
         // r in (eps, 1 - eps)
         Polygon3 part;
         for (const auto& p : occ->p) part.push_back(p);
-        part = clip_polygon(part, [&](const glm::dvec3& p) {
-            return glm::dot(p - l0, nl) / sx - kEps;
-        });
-        part = clip_polygon(part, [&](const glm::dvec3& p) {
-            return (1.0 - kEps) - glm::dot(p - l0, nl) / sx;
-        });
+        part = clip_polygon(part,
+                            [&](const glm::dvec3& p) { return glm::dot(p - l0, nl) / sx - kEps; });
+        part = clip_polygon(
+            part, [&](const glm::dvec3& p) { return (1.0 - kEps) - glm::dot(p - l0, nl) / sx; });
         if (part.size() < 3) continue;
         // Central projection from x onto the light plane
         Poly2 shadow;
@@ -130,7 +127,8 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
             for (std::size_t k = 0; k < shadow.size() && rest.size() >= 3; ++k) {
                 const glm::dvec2 a = shadow[k], b = shadow[(k + 1) % shadow.size()];
                 // The part of _rest_ outside this edge is visible past the occluder
-                Poly2 outside = clip_polygon(rest, [&](const glm::dvec2& v) { return -left_of(a, b, v); });
+                Poly2 outside =
+                    clip_polygon(rest, [&](const glm::dvec2& v) { return -left_of(a, b, v); });
                 if (outside.size() >= 3 && std::abs(signed_area2(outside)) > 0.0) {
                     Piece p{outside, piece.weight, {}, {}};
                     bound(p);

@@ -7,16 +7,16 @@
 
 #include "abrad/radiosity/field_error.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <glm/geometric.hpp>
-#include <glm/vec2.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 namespace abrad::radiosity {
 

@@ -3,9 +3,8 @@
 #include "abrad/radiosity/form_factor.h"
 
 #include <cmath>
-#include <numbers>
-
 #include <glm/geometric.hpp>
+#include <numbers>
 
 namespace abrad::radiosity {
 

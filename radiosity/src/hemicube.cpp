@@ -3,9 +3,8 @@
 #include "abrad/radiosity/hemicube.h"
 
 #include <cmath>
-#include <stdexcept>
-
 #include <glm/geometric.hpp>
+#include <stdexcept>
 
 #include "abrad/radiosity/form_factor.h"
 
@@ -16,7 +15,7 @@ ShooterFrame ShooterFrame::at(const glm::dvec3& origin, const glm::dvec3& normal
     f.origin = origin;
     f.n = glm::normalize(normal);
     // Pick the world axis least aligned with n for a stable tangent _u_
-    const glm::dvec3 a = std::abs(f.n.x) < 0.57 ? glm::dvec3(1, 0, 0)
+    const glm::dvec3 a = std::abs(f.n.x) < 0.57   ? glm::dvec3(1, 0, 0)
                          : std::abs(f.n.y) < 0.57 ? glm::dvec3(0, 1, 0)
                                                   : glm::dvec3(0, 0, 1);
     f.u = glm::normalize(glm::cross(a, f.n));
@@ -31,11 +30,16 @@ glm::dvec3 ShooterFrame::to_local(const glm::dvec3& p) const {
 
 glm::dvec3 to_face(int face, const glm::dvec3& l) {
     switch (face) {
-        case kTop: return {l.x, l.y, l.z};
-        case kPosU: return {l.y, l.z, l.x};
-        case kNegU: return {-l.y, l.z, -l.x};
-        case kPosV: return {-l.x, l.z, l.y};
-        default: return {l.x, l.z, -l.y};  // kNegV
+        case kTop:
+            return {l.x, l.y, l.z};
+        case kPosU:
+            return {l.y, l.z, l.x};
+        case kNegU:
+            return {-l.y, l.z, -l.x};
+        case kPosV:
+            return {-l.x, l.z, l.y};
+        default:
+            return {l.x, l.z, -l.y};  // kNegV
     }
 }
 
@@ -44,11 +48,16 @@ namespace {
 // Inverse of to_face: local coordinates of face coordinates.
 glm::dvec3 from_face(int face, const glm::dvec3& f) {
     switch (face) {
-        case kTop: return {f.x, f.y, f.z};
-        case kPosU: return {f.z, f.x, f.y};
-        case kNegU: return {-f.z, -f.x, f.y};
-        case kPosV: return {-f.x, f.z, f.y};
-        default: return {f.x, -f.z, f.y};  // kNegV
+        case kTop:
+            return {f.x, f.y, f.z};
+        case kPosU:
+            return {f.z, f.x, f.y};
+        case kNegU:
+            return {-f.z, -f.x, f.y};
+        case kPosV:
+            return {-f.x, f.z, f.y};
+        default:
+            return {f.x, -f.z, f.y};  // kNegV
     }
 }
 
@@ -71,10 +80,9 @@ Hemicube::Hemicube(int resolution) : m_resolution(resolution) {
             for (int x = 0; x < width(f); ++x) {
                 const double a0 = proj_a(x), a1 = proj_a(x + 1);
                 const double b0 = proj_b(f, y), b1 = proj_b(f, y + 1);
-                const glm::dvec3 quad[4] = {from_face(f, {a0, b0, 1.0}),
-                                            from_face(f, {a1, b0, 1.0}),
-                                            from_face(f, {a1, b1, 1.0}),
-                                            from_face(f, {a0, b1, 1.0})};
+                const glm::dvec3 quad[4] = {
+                    from_face(f, {a0, b0, 1.0}), from_face(f, {a1, b0, 1.0}),
+                    from_face(f, {a1, b1, 1.0}), from_face(f, {a0, b1, 1.0})};
                 m_delta[face_offset(f) + static_cast<std::size_t>(y * width(f) + x)] =
                     point_polygon_form_factor(origin, normal, quad);
             }
@@ -85,8 +93,8 @@ Hemicube::Hemicube(int resolution) : m_resolution(resolution) {
 std::string Hemicube::to_string() const {
     double sum = 0.0;
     for (double d : m_delta) sum += d;
-    return "Hemicube(R=" + std::to_string(m_resolution) + ", pixels=" +
-           std::to_string(m_delta.size()) + ", sum dF=" + std::to_string(sum) + ")";
+    return "Hemicube(R=" + std::to_string(m_resolution) +
+           ", pixels=" + std::to_string(m_delta.size()) + ", sum dF=" + std::to_string(sum) + ")";
 }
 
 }  // namespace abrad::radiosity

@@ -3,16 +3,16 @@
 
 #include "abrad/radiosity/indirect.h"
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <mutex>
-#include <numeric>
-
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
+#include <mutex>
+#include <numeric>
 
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/hemicube.h"
@@ -49,7 +49,9 @@ struct Pieces {
     std::vector<glm::dvec3> centroid;
 };
 
-double area_of(const Patch& p) { return 0.5 * glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0])); }
+double area_of(const Patch& p) {
+    return 0.5 * glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]));
+}
 
 // Form factors from one shooting point onto the elements, fronts and backs apart, given the
 // hemicube's form factor of every piece.
@@ -177,7 +179,8 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
     for (std::size_t t = 0; t < nt; ++t) {
         const Patch& p = in.patches[t];
         double longest = 0.0;
-        for (int k = 0; k < 3; ++k) longest = std::max(longest, glm::length(p.p[(k + 1) % 3] - p.p[k]));
+        for (int k = 0; k < 3; ++k)
+            longest = std::max(longest, glm::length(p.p[(k + 1) % 3] - p.p[k]));
         const int n = static_cast<int>(std::clamp(std::ceil(longest / size), 1.0, 64.0));
         const glm::dvec3 e1 = (p.p[1] - p.p[0]) / double(n), e2 = (p.p[2] - p.p[0]) / double(n);
         auto at = [&](int i, int j) { return p.p[0] + double(i) * e1 + double(j) * e2; };
@@ -216,7 +219,8 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
     std::vector<glm::dvec3> region_normal(in.region_normal.begin(), in.region_normal.end());
 
     const Hemicube hemicube(options.resolution);
-    const ShootOptions so{.method = options.method, .subpixels = options.subpixels, .occlusion = false};
+    const ShootOptions so{
+        .method = options.method, .subpixels = options.subpixels, .occlusion = false};
 
     // Scratch per thread for folding piece form factors into element rows
     struct Scratch {
@@ -235,8 +239,10 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
     std::vector<std::uint32_t> lights;
     for (std::size_t t = 0; t < nt; ++t)
         if (emits(in.emittance[t])) lights.push_back(static_cast<std::uint32_t>(t));
-    if (lights.empty()) throw BakeError("the scene has no light sources (no material with emittance > 0)");
-    for (const std::uint32_t l : lights) energy.emitted += mean(in.emittance[l]) * area_of(in.patches[l]);
+    if (lights.empty())
+        throw BakeError("the scene has no light sources (no material with emittance > 0)");
+    for (const std::uint32_t l : lights)
+        energy.emitted += mean(in.emittance[l]) * area_of(in.patches[l]);
     if (progress) progress("interreflection: lights", 0, lights.size(), 1.0);
     tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
         const Patch& light = in.patches[lights[li]];
@@ -244,8 +250,8 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
         const ShootResult shot = shoot(frame, pieces.patch, hemicube, so);
         Scratch& s = scratch.local();
         Row row;
-        fold_row(shot.form_factor, pieces, sol.elements, frame.origin, s.front, s.back, s.touched, row,
-                 region_normal);
+        fold_row(shot.form_factor, pieces, sol.elements, frame.origin, s.front, s.back, s.touched,
+                 row, region_normal);
         const visdb::Rgb power = in.emittance[lights[li]] * area_of(light);
         std::lock_guard lock(merge);
         for (const Entry& x : row.entries) {
@@ -280,11 +286,12 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
             const ShooterFrame frame = ShooterFrame::at(el.centroid, region_normal[el.region]);
             const ShootResult shot = shoot(frame, pieces.patch, hemicube, so);
             Scratch& s = scratch.local();
-            fold_row(shot.form_factor, pieces, sol.elements, frame.origin, s.front, s.back, s.touched,
-                     rows[todo[k]], region_normal);
+            fold_row(shot.form_factor, pieces, sol.elements, frame.origin, s.front, s.back,
+                     s.touched, rows[todo[k]], region_normal);
         });
         sol.rows_computed += todo.size();
-        for (const std::uint32_t e : todo) cache_bytes += rows[e].entries.capacity() * sizeof(Entry);
+        for (const std::uint32_t e : todo)
+            cache_bytes += rows[e].entries.capacity() * sizeof(Entry);
     };
     auto release_rows = [&](const std::vector<std::uint32_t>& used) {
         if (cache_bytes <= options.row_cache_bytes) return;
@@ -316,7 +323,8 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
 
     const double emitted = energy.emitted;
     auto record = [&](double unshot) {
-        sol.curve.push_back({sol.shots, std::chrono::duration<double>(Clock::now() - t_start).count(),
+        sol.curve.push_back({sol.shots,
+                             std::chrono::duration<double>(Clock::now() - t_start).count(),
                              emitted > 0.0 ? unshot / emitted : 0.0});
     };
     double unshot = unshot_power();
@@ -328,14 +336,16 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
             const std::vector<visdb::Rgb> pending = r;
             std::vector<std::uint32_t> shooters;
             for (std::size_t e = 0; e < ne; ++e)
-                if (mean(glm::abs(pending[e])) > 0.0) shooters.push_back(static_cast<std::uint32_t>(e));
+                if (mean(glm::abs(pending[e])) > 0.0)
+                    shooters.push_back(static_cast<std::uint32_t>(e));
             if (shooters.empty()) break;
             // In slices, so that rows not kept in the cache are freed as we go
             const std::size_t slice = 256;
             for (std::size_t s0 = 0; s0 < shooters.size(); s0 += slice) {
                 const std::vector<std::uint32_t> part(
                     shooters.begin() + static_cast<std::ptrdiff_t>(s0),
-                    shooters.begin() + static_cast<std::ptrdiff_t>(std::min(shooters.size(), s0 + slice)));
+                    shooters.begin() +
+                        static_cast<std::ptrdiff_t>(std::min(shooters.size(), s0 + slice)));
                 compute_rows(part);
                 for (const std::uint32_t i : part) shoot_from(i, pending[i]);
                 release_rows(part);
@@ -343,8 +353,9 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
             ++sol.bounces_done;
             unshot = unshot_power();
             record(unshot);
-            if (progress) progress("interreflection: bounce", std::size_t(bounce + 1),
-                                   std::size_t(options.bounces), unshot / emitted);
+            if (progress)
+                progress("interreflection: bounce", std::size_t(bounce + 1),
+                         std::size_t(options.bounces), unshot / emitted);
         }
     } else {
         // Southwell: in rounds, the elements with the most unshot power first; each shoots ω
@@ -353,7 +364,9 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
         std::vector<std::uint32_t> order(ne);
         while (unshot > target && sol.shots < options.max_shots) {
             std::iota(order.begin(), order.end(), 0u);
-            auto power_of = [&](std::uint32_t e) { return std::abs(mean(r[e])) * sol.elements[e].area; };
+            auto power_of = [&](std::uint32_t e) {
+                return std::abs(mean(r[e])) * sol.elements[e].area;
+            };
             // The round: the fewest elements holding half of the unshot power, at least 16
             std::sort(order.begin(), order.end(),
                       [&](std::uint32_t a, std::uint32_t b) { return power_of(a) > power_of(b); });
@@ -362,7 +375,8 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
             while (m < ne && (held < 0.5 * unshot || m < 16) && power_of(order[m]) > 0.0)
                 held += power_of(order[m++]);
             if (m == 0) break;
-            const std::vector<std::uint32_t> part(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m));
+            const std::vector<std::uint32_t> part(order.begin(),
+                                                  order.begin() + static_cast<std::ptrdiff_t>(m));
             compute_rows(part);
             for (const std::uint32_t i : part) {
                 if (power_of(i) <= 0.0) continue;
@@ -395,7 +409,8 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
             rho_eff += el.reflectance * el.area * kept;
         }
         rho_eff /= total_area;
-        const visdb::Rgb amb = first / total_area / glm::max(visdb::Rgb(1e-6), visdb::Rgb(1.0) - rho_eff);
+        const visdb::Rgb amb =
+            first / total_area / glm::max(visdb::Rgb(1e-6), visdb::Rgb(1.0) - rho_eff);
         sol.ambient_irradiance = amb;
         for (std::size_t e = 0; e < ne; ++e) H[e] += amb;
         energy.ambient = mean(amb) * total_area;
@@ -424,7 +439,8 @@ IndirectField::IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& m
         const glm::u32vec3 tri = mesh.triangles[t];
         const std::uint32_t s = mesh.triangle_surface[t];
         if (s >= scene.surfaces.size() || scene.surfaces[s].material >= scene.materials.size())
-            throw BakeError("bake triangle " + std::to_string(t) + " has no surface or material in the scene");
+            throw BakeError("bake triangle " + std::to_string(t) +
+                            " has no surface or material in the scene");
         const visdb::Material& m = scene.materials[scene.surfaces[s].material];
         Patch p{{mesh.positions[tri.x] - m_origin, mesh.positions[tri.y] - m_origin,
                  mesh.positions[tri.z] - m_origin},
@@ -442,8 +458,9 @@ IndirectField::IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& m
 
 visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3& n) const {
     const glm::dvec3 x = x_world - m_origin;
-    const ShootResult shot = shoot(ShooterFrame::at(x, n), m_patches, m_hemicube,
-                                   {.method = Visibility::ABuffer, .subpixels = 8, .occlusion = false});
+    const ShootResult shot =
+        shoot(ShooterFrame::at(x, n), m_patches, m_hemicube,
+              {.method = Visibility::ABuffer, .subpixels = 8, .occlusion = false});
     visdb::Rgb h(0.0);
     for (std::size_t j = 0; j < m_patches.size(); ++j) {
         const double f = shot.form_factor[j];
@@ -457,7 +474,8 @@ visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3
 
 namespace abrad::radiosity {
 
-PointIrradiance::PointIrradiance(const visdb::Scene& scene, const visdb::Bake* bake) : m_direct(scene) {
+PointIrradiance::PointIrradiance(const visdb::Scene& scene, const visdb::Bake* bake)
+    : m_direct(scene) {
     if (!bake) return;
     for (const auto& [key, value] : bake->parameters)
         if (key == "bounces" && value != "0") m_indirect.emplace(scene, bake->mesh);

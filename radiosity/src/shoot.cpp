@@ -34,8 +34,7 @@ struct Mask {
 
     static Mask full() {
         Mask m;
-        for (int i = 0; i < kWords; ++i)
-            w_set_all(m.w[i], i);
+        for (int i = 0; i < kWords; ++i) w_set_all(m.w[i], i);
         return m;
     }
     static void w_set_all(std::uint64_t& word, int i) {
@@ -253,8 +252,9 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
                 sy /= n;
             }
             const double depth = plane.depth(hc.proj_a(sx), hc.proj_b(face, sy));
-            out.fragments.push_back({static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)),
-                                     patch, static_cast<float>(depth), fine_index, mask});
+            out.fragments.push_back(
+                {static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)), patch,
+                 static_cast<float>(depth), fine_index, mask});
         }
     }
 }
@@ -276,8 +276,9 @@ void rasterize_points(const Hemicube& hc, int face, const Poly2& p, const DepthP
             Mask<1> m;
             m.set(0, 0);
             const double depth = plane.depth(hc.proj_a(i + 0.5), hc.proj_b(face, j + 0.5));
-            out.fragments.push_back({static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)),
-                                     patch, static_cast<float>(depth), kNoPatch, m});
+            out.fragments.push_back(
+                {static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)), patch,
+                 static_cast<float>(depth), kNoPatch, m});
         }
     }
 }
@@ -313,8 +314,7 @@ void project_patch(const Hemicube& hc, const glm::dvec3 local[3], Emit&& emit) {
         if (std::abs(signed_area2(p2)) <= 1e-14) continue;
         // Plane of the patch in face coordinates
         const glm::dvec3 q0 = to_face(f, local[0]);
-        const glm::dvec3 nrm =
-            glm::cross(to_face(f, local[1]) - q0, to_face(f, local[2]) - q0);
+        const glm::dvec3 nrm = glm::cross(to_face(f, local[1]) - q0, to_face(f, local[2]) - q0);
         const DepthPlane plane{nrm, glm::dot(nrm, q0), dmin};
         emit(f, p2, plane);
     }
@@ -333,8 +333,8 @@ struct Bundle {
 // transmittance left after the translucent patches it went through.
 template <typename M>
 void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
-               std::span<const Patch> all, double delta, bool translucency,
-               std::vector<double>& ff, std::vector<Bundle<M>>& bundles) {
+               std::span<const Patch> all, double delta, bool translucency, std::vector<double>& ff,
+               std::vector<Bundle<M>>& bundles) {
     bundles.clear();
     bundles.push_back({M::full(), 1.0});
     const double per_sample = delta / M::kSamples;
@@ -390,7 +390,8 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
         const std::size_t i = options.only ? (*options.only)[k] : k;
         if (i == options.exclude || i >= patches.size()) continue;
         double near = std::numeric_limits<double>::infinity();
-        for (const glm::dvec3& p : patches[i].p) near = std::min(near, glm::length(p - frame.origin));
+        for (const glm::dvec3& p : patches[i].p)
+            near = std::min(near, glm::length(p - frame.origin));
         order_fb.emplace_back(near, static_cast<std::uint32_t>(i));
     }
     std::sort(order_fb.begin(), order_fb.end());
@@ -449,7 +450,8 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
             for (std::size_t f = first; f < buffer.fragments.size(); ++f) {
                 const Fragment<S>& frag = buffer.fragments[f];
                 float& cd = closed_depth[frag.pixel];
-                if (frag.fine != kNoPatch || !std::isinf(cd)) continue;  // no coarse samples, or closed
+                if (frag.fine != kNoPatch || !std::isinf(cd))
+                    continue;  // no coarse samples, or closed
                 Mask<S>& m = covered[frag.pixel];
                 for (int w = 0; w < Mask<S>::kWords; ++w) m.w[w] |= frag.mask.w[w];
                 deepest[frag.pixel] = std::max(deepest[frag.pixel], frag.depth);
@@ -526,8 +528,8 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
     result.occlusion.reserve(pairs.size());
     for (std::uint64_t key : pairs)
-        result.occlusion.push_back({static_cast<std::uint32_t>(key >> 32),
-                                    static_cast<std::uint32_t>(key & 0xffffffffu)});
+        result.occlusion.push_back(
+            {static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key & 0xffffffffu)});
     occlusion_time += std::chrono::steady_clock::now() - t_dedup;
     result.seconds_occlusion = std::chrono::duration<double>(occlusion_time).count();
     return result;
@@ -536,20 +538,26 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
 }  // namespace
 
 std::span<const OcclusionPair> ShootResult::occluders_of(std::uint32_t receiver) const {
-    auto lo = std::lower_bound(occlusion.begin(), occlusion.end(), receiver,
-                               [](const OcclusionPair& p, std::uint32_t r) { return p.receiver < r; });
-    auto hi = std::upper_bound(lo, occlusion.end(), receiver,
-                               [](std::uint32_t r, const OcclusionPair& p) { return r < p.receiver; });
+    auto lo =
+        std::lower_bound(occlusion.begin(), occlusion.end(), receiver,
+                         [](const OcclusionPair& p, std::uint32_t r) { return p.receiver < r; });
+    auto hi =
+        std::upper_bound(lo, occlusion.end(), receiver,
+                         [](std::uint32_t r, const OcclusionPair& p) { return r < p.receiver; });
     return {lo, hi};
 }
 
 ShootResult shoot(const ShooterFrame& frame, std::span<const Patch> patches,
                   const Hemicube& hemicube, const ShootOptions& options) {
-    if (options.method == Visibility::ZBuffer) return shoot_with<1>(frame, patches, hemicube, options);
+    if (options.method == Visibility::ZBuffer)
+        return shoot_with<1>(frame, patches, hemicube, options);
     switch (options.subpixels) {
-        case 4: return shoot_with<4>(frame, patches, hemicube, options);
-        case 8: return shoot_with<8>(frame, patches, hemicube, options);
-        case 16: return shoot_with<16>(frame, patches, hemicube, options);
+        case 4:
+            return shoot_with<4>(frame, patches, hemicube, options);
+        case 8:
+            return shoot_with<8>(frame, patches, hemicube, options);
+        case 16:
+            return shoot_with<16>(frame, patches, hemicube, options);
         default:
             throw std::invalid_argument("A-buffer subpixels must be 4, 8 or 16, got " +
                                         std::to_string(options.subpixels));

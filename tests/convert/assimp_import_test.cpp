@@ -3,8 +3,6 @@
 // end in an ImportError naming the file (never a crash: the suite runs under ASan).
 
 #include <gtest/gtest.h>
-
-#include "temp_dir.h"
 #include <unistd.h>
 
 #include <algorithm>
@@ -24,6 +22,7 @@
 #include <vector>
 
 #include "raw_model.h"
+#include "temp_dir.h"
 
 /// Assimp 5.2 leaks its partial scene when some readers (PLY among them) throw on a malformed
 /// file; that is not our memory, so LeakSanitizer ignores leaks allocated inside libassimp.

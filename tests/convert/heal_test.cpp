@@ -5,10 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <string>
 #include <vector>
-
-#include <glm/geometric.hpp>
 
 #include "raw_model.h"
 
@@ -44,8 +43,10 @@ class Soup {
     /// An axis-aligned quad in the plane z = `z`, counter-clockwise seen from +z (or from -z
     /// when `down`).
     void quad_z(std::uint32_t s, double x0, double y0, double x1, double y1, double z, bool down) {
-        if (down) face(s, {{x0, y0, z}, {x0, y1, z}, {x1, y1, z}, {x1, y0, z}});
-        else face(s, {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}});
+        if (down)
+            face(s, {{x0, y0, z}, {x0, y1, z}, {x1, y1, z}, {x1, y0, z}});
+        else
+            face(s, {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}});
     }
 
     RawModel& raw() { return m_raw; }
@@ -61,8 +62,8 @@ bool has_note(const ImportReport& r, const std::string& prefix) {
 }
 
 glm::dvec3 normal_of(const visdb::TriangleMesh& m, const glm::u32vec3& t) {
-    return glm::normalize(glm::cross(m.positions[t.y] - m.positions[t.x],
-                                     m.positions[t.z] - m.positions[t.x]));
+    return glm::normalize(
+        glm::cross(m.positions[t.y] - m.positions[t.x], m.positions[t.z] - m.positions[t.x]));
 }
 
 double area_of(const visdb::Scene& scene) {
@@ -109,8 +110,10 @@ TEST(Heal, SurveyCoordinatesKeepMillimetreDetail) {
     const std::uint32_t s = soup.slot("slab");
     soup.quad_z(s, o.x, o.y, o.x + 10.0, o.y + 10.0, o.z, false);
     soup.quad_z(s, o.x + 10.001, o.y, o.x + 11.0, o.y + 10.0, o.z, false);
-    soup.face(s, {{o.x + 11.0 + 1e-6, o.y, o.z}, {o.x + 12.0, o.y, o.z},
-                  {o.x + 12.0, o.y + 10.0, o.z}, {o.x + 11.0, o.y + 10.0 - 1e-6, o.z}});
+    soup.face(s, {{o.x + 11.0 + 1e-6, o.y, o.z},
+                  {o.x + 12.0, o.y, o.z},
+                  {o.x + 12.0, o.y + 10.0, o.z},
+                  {o.x + 11.0, o.y + 10.0 - 1e-6, o.z}});
     ImportReport report;
     const visdb::Scene scene = heal(soup.raw(), {1e-6}, report);
     EXPECT_EQ(report.vertices_welded_near, 2u);  // only the 1 µm pair
@@ -171,10 +174,13 @@ TEST(Heal, ClosedBoxKeepsItsMajorityOrientation) {
         const auto& m = scene.surfaces[k].mesh;
         for (const auto& t : m.triangles) {
             const glm::dvec3 c = (m.positions[t.x] + m.positions[t.y] + m.positions[t.z]) / 3.0;
-            const glm::dvec3 centre = k == 0 ? glm::dvec3{0.5, 0.5, 0.5} : glm::dvec3{5.5, 0.5, 0.5};
+            const glm::dvec3 centre =
+                k == 0 ? glm::dvec3{0.5, 0.5, 0.5} : glm::dvec3{5.5, 0.5, 0.5};
             const double outward = glm::dot(normal_of(m, t), c - centre);
-            if (k == 0) EXPECT_GT(outward, 0.0);
-            else EXPECT_LT(outward, 0.0);
+            if (k == 0)
+                EXPECT_GT(outward, 0.0);
+            else
+                EXPECT_LT(outward, 0.0);
         }
     }
 }
@@ -193,7 +199,8 @@ TEST(Heal, ReportsALightFlushWithTheCeiling) {
     EXPECT_TRUE(has_note(report, "soup:2: surfaces 'ceiling' and 'light' overlap coplanar"))
         << report.to_string();
     bool area_ok = false;
-    for (const std::string& n : report.notes) area_ok = area_ok || n.find(", 1 m²") != std::string::npos;
+    for (const std::string& n : report.notes)
+        area_ok = area_ok || n.find(", 1 m²") != std::string::npos;
     EXPECT_TRUE(area_ok) << report.to_string();
 
     // 1 cm under the ceiling, or facing up (back to back), it is no z-fighting
@@ -214,7 +221,8 @@ TEST(Heal, AdjacentTrianglesAreNoOverlap) {
     Soup soup;
     const std::uint32_t s = soup.slot("floor");
     for (int i = 0; i < 20; ++i)
-        for (int j = 0; j < 20; ++j) soup.quad_z(s, i * 0.1, j * 0.1, (i + 1) * 0.1, (j + 1) * 0.1, 0, false);
+        for (int j = 0; j < 20; ++j)
+            soup.quad_z(s, i * 0.1, j * 0.1, (i + 1) * 0.1, (j + 1) * 0.1, 0, false);
     ImportReport report;
     const visdb::Scene scene = heal(soup.raw(), {1e-7}, report);
     EXPECT_EQ(report.overlapping_pairs, 0u);
@@ -254,7 +262,8 @@ TEST(Heal, NothingLeftIsAnError) {
         heal(soup.raw(), {1e-7}, report);
         FAIL() << "expected ImportError";
     } catch (const ImportError& e) {
-        EXPECT_NE(std::string(e.what()).find("soup: no triangles left after healing"), std::string::npos)
+        EXPECT_NE(std::string(e.what()).find("soup: no triangles left after healing"),
+                  std::string::npos)
             << e.what();
     }
 }

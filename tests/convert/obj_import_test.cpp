@@ -4,8 +4,6 @@
 #include "abrad/convert/obj_import.h"
 
 #include <gtest/gtest.h>
-
-#include "temp_dir.h"
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,6 +19,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "temp_dir.h"
 
 namespace abrad::convert {
 namespace {

@@ -4,8 +4,6 @@
 #include "abrad/convert/scene_file.h"
 
 #include <gtest/gtest.h>
-
-#include "temp_dir.h"
 #include <unistd.h>
 
 #include <atomic>
@@ -16,6 +14,8 @@
 #include <glm/geometric.hpp>
 #include <string>
 #include <vector>
+
+#include "temp_dir.h"
 
 namespace abrad::convert {
 namespace {
@@ -530,7 +530,8 @@ TEST(SceneFile, LuminairesOfOneFluxShareOneMaterialDespiteRounding) {
     scene.surfaces.push_back(quad("light_2", "", 3, 2.3, 1.7, 2.9, 2.0, 2.9));
     scene.surfaces.push_back(quad("light_3", "", 3, 4.45, 3.35, 5.05, 3.65, 2.9));
     ASSERT_NE(area(scene.surfaces[5].mesh), area(scene.surfaces[7].mesh));
-    const SceneFileReport report = apply_scene_file(parse("[[rule]]\nobject = \"light_*\"\nflux = 1000.0\n"), scene);
+    const SceneFileReport report =
+        apply_scene_file(parse("[[rule]]\nobject = \"light_*\"\nflux = 1000.0\n"), scene);
     EXPECT_EQ(report.materials_overridden, 1u);
     for (const char* name : {"light_1", "light_2", "light_3"}) {
         EXPECT_EQ(&material_of(scene, name), &material_of(scene, "light_1"));

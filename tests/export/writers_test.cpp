@@ -1,5 +1,8 @@
 // Tests of the PLY and OBJ writers and the tone map, against an independent PLY reader.
 
+#include "abrad/export/writers.h"
+
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,10 +21,6 @@
 #include <system_error>
 #include <variant>
 #include <vector>
-
-#include <gtest/gtest.h>
-
-#include "abrad/export/writers.h"
 
 namespace abrad::exporter {
 namespace {
@@ -83,7 +82,7 @@ std::vector<std::string> split_ws(std::string_view line) {
 
 /// Reads a little-endian scalar of `type` from `data` at `pos`, assembling bytes by shifts.
 class BinaryCursor {
-public:
+  public:
     BinaryCursor(std::string_view data, std::size_t pos) : m_data(data), m_pos(pos) {}
 
     Scalar read(const std::string& type) {
@@ -95,7 +94,7 @@ public:
     }
     bool at_end() const { return m_pos == m_data.size(); }
 
-private:
+  private:
     template <typename U>
     U bytes(std::size_t n) {
         if (m_pos + n > m_data.size()) throw std::runtime_error("binary body truncated");
@@ -113,7 +112,7 @@ private:
 
 /// Reads whitespace-separated tokens and parses them exactly (std::from_chars).
 class AsciiCursor {
-public:
+  public:
     explicit AsciiCursor(std::string_view body) : m_tokens(split_ws(body)) {}
 
     Scalar read(const std::string& type) {
@@ -131,7 +130,7 @@ public:
     }
     bool at_end() const { return m_next == m_tokens.size(); }
 
-private:
+  private:
     template <typename T>
     static T parse(const std::string& token) {
         T value{};
@@ -191,7 +190,8 @@ Ply read_ply(const fs::path& path) {
         } else if (tokens[0] == "property") {
             if (ply.elements.empty()) throw std::runtime_error("property before element");
             if (tokens.at(1) == "list") {
-                ply.elements.back().properties.push_back({tokens.at(4), tokens.at(3), tokens.at(2)});
+                ply.elements.back().properties.push_back(
+                    {tokens.at(4), tokens.at(3), tokens.at(2)});
             } else {
                 ply.elements.back().properties.push_back({tokens.at(2), tokens.at(1), ""});
             }
@@ -222,12 +222,11 @@ T get(const PlyElement& e, std::size_t row, const std::string& property) {
 
 /// A directory of its own for one test, removed afterwards.
 class TempDir {
-public:
+  public:
     TempDir() {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        m_path = fs::temp_directory_path() /
-                 ("abrad_export_test_" + std::to_string(::getpid()) + "_" +
-                  info->test_suite_name() + "_" + info->name());
+        m_path = fs::temp_directory_path() / ("abrad_export_test_" + std::to_string(::getpid()) +
+                                              "_" + info->test_suite_name() + "_" + info->name());
         fs::remove_all(m_path);
         fs::create_directories(m_path);
     }
@@ -244,7 +243,7 @@ public:
             std::distance(fs::directory_iterator(m_path), fs::directory_iterator{}));
     }
 
-private:
+  private:
     fs::path m_path;
 };
 
@@ -256,21 +255,22 @@ visdb::BakeMesh two_surface_mesh() {
     visdb::BakeMesh m;
     const double x0 = 1e6 + 0.001;
     const double y0 = 2e6 + 0.002;
-    m.positions = {{x0, y0, 12.345},         {x0 + 1.0, y0, 12.345},
-                   {x0 + 1.0, y0 + 1.0, 12.345}, {x0, y0 + 1.0, 12.345},
-                   {x0, y0, 0.1},            {x0, y0 + 0.5, 0.1},
+    m.positions = {{x0, y0, 12.345},           {x0 + 1.0, y0, 12.345}, {x0 + 1.0, y0 + 1.0, 12.345},
+                   {x0, y0 + 1.0, 12.345},     {x0, y0, 0.1},          {x0, y0 + 0.5, 0.1},
                    {x0, y0 + 0.25, 3.0 + 1e-9}};
-    m.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1},
+    m.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1},         {0, 0, 1},
                  {1, 0, 0}, {1, 0, 0}, {0.6f, 0.0f, 0.8f}};
     m.triangles = {{0, 1, 2}, {4, 5, 6}, {0, 2, 3}};
     m.triangle_surface = {0, 1, 0};
-    m.irradiance = {{0.1f, 0.2f, 0.3f},      {1.0f / 3.0f, 2.0f / 3.0f, 1e-7f},
-                    {12345.678f, 0, 0},      {0, 0, 0},
-                    {3.14159265f, 2.71828f, 1.41421356f}, {1e30f, 1e-30f, 5.5f},
+    m.irradiance = {{0.1f, 0.2f, 0.3f}, {1.0f / 3.0f, 2.0f / 3.0f, 1e-7f},    {12345.678f, 0, 0},
+                    {0, 0, 0},          {3.14159265f, 2.71828f, 1.41421356f}, {1e30f, 1e-30f, 5.5f},
                     {100, 200, 300}};
-    m.radiosity = {{static_cast<float>(kLn2), 0.0f, 1000.0f}, {0.05f, 0.1f, 0.15f},
-                   {1.0f, 1.0f, 1.0f},                       {0, 0, 0},
-                   {2.0f, 0.5f, 0.25f},                      {0.75f, 0.125f, 9.0f},
+    m.radiosity = {{static_cast<float>(kLn2), 0.0f, 1000.0f},
+                   {0.05f, 0.1f, 0.15f},
+                   {1.0f, 1.0f, 1.0f},
+                   {0, 0, 0},
+                   {2.0f, 0.5f, 0.25f},
+                   {0.75f, 0.125f, 9.0f},
                    {10, 20, 30}};
     return m;
 }
@@ -293,20 +293,21 @@ visdb::Scene two_surface_scene() {
 /// The sRGB byte of linear radiosity v at exposure k, from the formulas of the tone map.
 std::uint8_t expected_byte(double v, double k) {
     const double mapped = 1.0 - std::exp(-k * std::max(v, 0.0));
-    const double s = mapped < 0.0031308 ? 12.92 * mapped : 1.055 * std::pow(mapped, 1 / 2.4) - 0.055;
+    const double s =
+        mapped < 0.0031308 ? 12.92 * mapped : 1.055 * std::pow(mapped, 1 / 2.4) - 0.055;
     return static_cast<std::uint8_t>(std::lround(s * 255.0));
 }
 
 const std::vector<std::string> kContractProperties = {
-    "property double x",         "property double y",         "property double z",
-    "property float nx",         "property float ny",         "property float nz",
-    "property uchar red",        "property uchar green",      "property uchar blue",
+    "property double x",           "property double y",           "property double z",
+    "property float nx",           "property float ny",           "property float nz",
+    "property uchar red",          "property uchar green",        "property uchar blue",
     "property float irradiance_r", "property float irradiance_g", "property float irradiance_b",
     "property float radiosity_r",  "property float radiosity_g",  "property float radiosity_b"};
 
 std::vector<std::string> contract_header(const std::string& format,
-                                         const std::vector<std::string>& comments,
-                                         std::size_t n, std::size_t m) {
+                                         const std::vector<std::string>& comments, std::size_t n,
+                                         std::size_t m) {
     std::vector<std::string> h = {"ply", "format " + format + " 1.0"};
     for (const auto& c : comments) h.push_back("comment " + c);
     h.push_back("element vertex " + std::to_string(n));
@@ -533,15 +534,21 @@ ObjFile read_obj(const fs::path& path) {
         if (tokens.empty() || tokens[0][0] == '#') continue;
         const std::string key = tokens[0];
         tokens.erase(tokens.begin());
-        if (key == "v") obj.v.push_back(tokens);
-        else if (key == "vn") obj.vn.push_back(tokens);
-        else if (key == "mtllib") obj.mtllib = tokens;
+        if (key == "v")
+            obj.v.push_back(tokens);
+        else if (key == "vn")
+            obj.vn.push_back(tokens);
+        else if (key == "mtllib")
+            obj.mtllib = tokens;
         else if (key == "o") {
             object = tokens.at(0);
             obj.objects.push_back(object);
-        } else if (key == "usemtl") material = tokens.at(0);
-        else if (key == "f") obj.faces.push_back({object, material, tokens});
-        else throw std::runtime_error("unexpected OBJ line: " + line);
+        } else if (key == "usemtl")
+            material = tokens.at(0);
+        else if (key == "f")
+            obj.faces.push_back({object, material, tokens});
+        else
+            throw std::runtime_error("unexpected OBJ line: " + line);
     }
     return obj;
 }

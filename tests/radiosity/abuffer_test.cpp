@@ -27,8 +27,8 @@ std::vector<Patch> small_patches(double size, std::vector<double>& exact) {
         for (int j = -8; j <= 8; ++j) {
             const double x = i * 0.3 + jitter(rng), y = j * 0.3 + jitter(rng);
             add_quad(p, {x, y, h}, {x, y + size, h}, {x + size, y + size, h}, {x + size, y, h});
-            const glm::dvec3 quad[4] = {{x, y, h}, {x, y + size, h}, {x + size, y + size, h},
-                                        {x + size, y, h}};
+            const glm::dvec3 quad[4] = {
+                {x, y, h}, {x, y + size, h}, {x + size, y + size, h}, {x + size, y, h}};
             exact.push_back(point_polygon_form_factor({0, 0, 0}, {0, 0, 1}, quad));
         }
     }
@@ -36,8 +36,8 @@ std::vector<Patch> small_patches(double size, std::vector<double>& exact) {
 }
 
 // RMS relative error of the per-square form factors.
-double rms_error(const std::vector<Patch>& p, const std::vector<double>& exact,
-                 Visibility method, int r, int s = 8) {
+double rms_error(const std::vector<Patch>& p, const std::vector<double>& exact, Visibility method,
+                 int r, int s = 8) {
     ShootOptions o;
     o.method = method;
     o.subpixels = s;
@@ -62,19 +62,19 @@ TEST(ABuffer, SmallPatchErrorFarBelowZBufferAndCloseToEightfoldZBuffer) {
     std::cout << "rms relative form-factor error, 0.05 m squares at 3 m: ZB R=50 " << zb50
               << ", ZB R=400 " << zb400 << ", AB R=50 4x4 " << ab50_4 << ", 8x8 " << ab50
               << ", 16x16 " << ab50_16 << "\n";
-    EXPECT_GT(zb50, 0.5);             // point sampling cannot resolve them
-    EXPECT_LT(ab50, 0.25 * zb50);     // far below the Z-buffer at the same R
+    EXPECT_GT(zb50, 0.5);                 // point sampling cannot resolve them
+    EXPECT_LT(ab50, 0.25 * zb50);         // far below the Z-buffer at the same R
     EXPECT_LT(ab50, 2.0 * zb400 + 0.02);  // and close to a Z-buffer at 8·R
     EXPECT_LT(zb400, 2.0 * ab50 + 0.02);
-    EXPECT_LT(ab50_16, ab50);         // finer masks converge
+    EXPECT_LT(ab50_16, ab50);  // finer masks converge
 }
 
 // The pane passes 1 − α of what reaches it to the receiver behind; the pane keeps α.
 TEST(ABuffer, TranslucentPanePassesOneMinusAlpha) {
     const double alpha = 0.3;
     std::vector<Patch> p;
-    add_quad(p, {-0.3, -0.2, 2}, {-0.3, 0.4, 2}, {0.5, 0.4, 2}, {0.5, -0.2, 2});           // receiver
-    add_quad(p, {-2, -2, 1}, {-2, 2, 1}, {2, 2, 1}, {2, -2, 1}, alpha);                    // pane
+    add_quad(p, {-0.3, -0.2, 2}, {-0.3, 0.4, 2}, {0.5, 0.4, 2}, {0.5, -0.2, 2});  // receiver
+    add_quad(p, {-2, -2, 1}, {-2, 2, 1}, {2, 2, 1}, {2, -2, 1}, alpha);           // pane
     const double receiver = testing::ff_parallel_rect(-0.3, 0.5, -0.2, 0.4, 2);
     const double pane = testing::ff_parallel_rect(-2, 2, -2, 2, 1);
     ShootOptions o;
@@ -107,11 +107,12 @@ TEST(ABuffer, UndersampledPatchGetsFinerMask) {
 // receiver, and a patch hidden entirely behind the receiver.
 TEST(ABuffer, OcclusionListsOfAHandBuiltStack) {
     std::vector<Patch> p;
-    add_quad(p, {-0.1, -0.1, 0.5}, {-0.1, 0.3, 0.5}, {0.3, 0.3, 0.5}, {0.3, -0.1, 0.5}, 0.5);  // 0,1 pane
-    add_quad(p, {-0.2, -0.2, 1}, {-0.2, 0.2, 1}, {0.2, 0.2, 1}, {0.2, -0.2, 1});              // 2,3 occluder
-    add_quad(p, {-1, -1, 2}, {-1, 1, 2}, {1, 1, 2}, {1, -1, 2});                              // 4,5 receiver
-    add_quad(p, {-0.1, -0.1, 3}, {-0.1, 0.1, 3}, {0.1, 0.1, 3}, {0.1, -0.1, 3});              // 6,7 hidden
-    add_quad(p, {3, 3, 2}, {3, 4, 2}, {4, 4, 2}, {4, 3, 2});                                  // 8,9 lit
+    add_quad(p, {-0.1, -0.1, 0.5}, {-0.1, 0.3, 0.5}, {0.3, 0.3, 0.5}, {0.3, -0.1, 0.5},
+             0.5);                                                                // 0,1 pane
+    add_quad(p, {-0.2, -0.2, 1}, {-0.2, 0.2, 1}, {0.2, 0.2, 1}, {0.2, -0.2, 1});  // 2,3 occluder
+    add_quad(p, {-1, -1, 2}, {-1, 1, 2}, {1, 1, 2}, {1, -1, 2});                  // 4,5 receiver
+    add_quad(p, {-0.1, -0.1, 3}, {-0.1, 0.1, 3}, {0.1, 0.1, 3}, {0.1, -0.1, 3});  // 6,7 hidden
+    add_quad(p, {3, 3, 2}, {3, 4, 2}, {4, 4, 2}, {4, 3, 2});                      // 8,9 lit
     const ShootResult res =
         shoot(ShooterFrame::at({0, 0, 0}, {0, 0, 1}), p, Hemicube(50), ShootOptions{});
     // Occluders of a quad (both its triangles), as quads: 0 pane, 1 occluder, 2 receiver,

@@ -1,12 +1,10 @@
 #include "abrad/radiosity/bake.h"
 
-#include <array>
-
 #include <gtest/gtest.h>
 
-#include <numbers>
-
+#include <array>
 #include <glm/geometric.hpp>
+#include <numbers>
 
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/form_factor.h"
@@ -26,7 +24,8 @@ visdb::Scene paper_scene(bool occluder) {
     scene.materials.push_back({"occluder", {0.3, 0.3, 0.3}, {0, 0, 0}, 1.0});
     scene.surfaces.push_back(grid("floor", 0, -1, 1, -1, 1, 0, 8, true));
     scene.surfaces.push_back(grid("light", 1, -0.5, 0.5, -0.5, 0.5, 1.5, 1, false));
-    if (occluder) scene.surfaces.push_back(grid("occluder", 2, -0.2, 0.2, -0.2, 0.2, 0.75, 1, true));
+    if (occluder)
+        scene.surfaces.push_back(grid("occluder", 2, -0.2, 0.2, -0.2, 0.2, 0.75, 1, true));
     return scene;
 }
 
@@ -76,8 +75,10 @@ TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
     // Power leaving the light that lands on the 2×2 floor: E · A_L · F(light→floor); with a
     // differential-area hemicube at each light triangle's centroid it is E·A·F(centroid→floor)
     const double mean_e = (10 + 20 + 5) / 3.0;
-    const double ff_centroid_floor = (testing::ff_parallel_rect(-1 + 1.0 / 6, 1 + 1.0 / 6, -1 + 1.0 / 6, 1 + 1.0 / 6, 1.5) +
-                                      testing::ff_parallel_rect(-1 - 1.0 / 6, 1 - 1.0 / 6, -1 - 1.0 / 6, 1 - 1.0 / 6, 1.5)) / 2;
+    const double ff_centroid_floor =
+        (testing::ff_parallel_rect(-1 + 1.0 / 6, 1 + 1.0 / 6, -1 + 1.0 / 6, 1 + 1.0 / 6, 1.5) +
+         testing::ff_parallel_rect(-1 - 1.0 / 6, 1 - 1.0 / 6, -1 - 1.0 / 6, 1 - 1.0 / 6, 1.5)) /
+        2;
     EXPECT_NEAR(received, mean_e * 1.0 * ff_centroid_floor, 0.01 * received);
     // The centre vertex: the hemicube treats each light triangle as a point at its centroid
     // (±1/6, ∓1/6, 1.5) carrying half the light's area, so each floor triangle j gets
@@ -92,8 +93,10 @@ TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
         {P(-q, 0, 0), z, P(0, q, 0)},   {P(0, -q, 0), P(q, 0, 0), z}};
     double expected = 0.0;
     for (const auto& tri : incident)
-        for (const glm::dvec3 c : {glm::dvec3(1.0 / 6, -1.0 / 6, 1.5), glm::dvec3(-1.0 / 6, 1.0 / 6, 1.5)})
-            expected += 10.0 * 0.5 * point_polygon_form_factor(c, {0, 0, -1}, tri) / (q * q / 2) / 6;
+        for (const glm::dvec3 c :
+             {glm::dvec3(1.0 / 6, -1.0 / 6, 1.5), glm::dvec3(-1.0 / 6, 1.0 / 6, 1.5)})
+            expected +=
+                10.0 * 0.5 * point_polygon_form_factor(c, {0, 0, -1}, tri) / (q * q / 2) / 6;
     BakeOptions exact_options;
     exact_options.dm = false;
     const visdb::Bake e = bake(scene, exact_options);

@@ -2,14 +2,13 @@
 // the closed form puts them, the mesh stays conforming and keeps every surface's area, and
 // the field error falls against the bake without it.
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
+#include <glm/geometric.hpp>
 #include <map>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
-
-#include <glm/geometric.hpp>
 
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
@@ -33,7 +32,8 @@ visdb::Scene room(int floor_cells) {
     scene.materials.push_back({"wall", {0.7, 0.7, 0.7}, {0, 0, 0}, 1.0});
     scene.surfaces.push_back(quad_grid("floor", 0, {-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, floor_cells));
     scene.surfaces.push_back(quad_grid("light", 1, {-0.5, -0.5, 1.5}, {0, 1, 0}, {1, 0, 0}, 1));
-    scene.surfaces.push_back(quad_grid("occluder", 2, {-0.2, -0.2, 0.75}, {0.4, 0, 0}, {0, 0.4, 0}, 1));
+    scene.surfaces.push_back(
+        quad_grid("occluder", 2, {-0.2, -0.2, 0.75}, {0.4, 0, 0}, {0, 0.4, 0}, 1));
     scene.surfaces.push_back(quad_grid("wall", 3, {1, -1, 0}, {0, 0, 1.5}, {0, 2, 0}, 1));
     return scene;
 }
@@ -57,7 +57,9 @@ TEST(DmBake, CentroidShadowCornersBecomeFloorVertices) {
                 for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
                     if (b.mesh.triangle_surface[t] == 0)
                         for (int k = 0; k < 3; ++k)
-                            nearest = std::min(nearest, glm::length(b.mesh.positions[b.mesh.triangles[t][k]] - expected));
+                            nearest = std::min(
+                                nearest,
+                                glm::length(b.mesh.positions[b.mesh.triangles[t][k]] - expected));
                 EXPECT_LT(nearest, 1e-9) << "corner " << expected.x << "," << expected.y;
             }
 }
@@ -77,20 +79,24 @@ TEST(DmBake, ConformingOrientedAndAreaPreserved) {
             EXPECT_GT(glm::dot(cr, glm::dvec3(b.mesh.normals[tri.x])), 0.0);
         }
         const std::map<std::uint32_t, double> expected = {{0, 4.0}, {1, 1.0}, {2, 0.16}, {3, 3.0}};
-        for (const auto& [s, a] : expected) EXPECT_NEAR(area[s], a, 1e-9 * a) << to_string(model) << " surface " << s;
+        for (const auto& [s, a] : expected)
+            EXPECT_NEAR(area[s], a, 1e-9 * a) << to_string(model) << " surface " << s;
         EXPECT_EQ(count_t_vertices(b.mesh), 0u) << to_string(model);
         EXPECT_GT(b.mesh.triangles.size(), 8u * 8u * 2u + 6u) << to_string(model);
     }
 }
 
 // The field error's reference is exact direct light: the bakes are direct light too.
-double field_error_of(const visdb::Scene& scene, const BakeOptions& options, std::size_t* triangles = nullptr) {
+double field_error_of(const visdb::Scene& scene, const BakeOptions& options,
+                      std::size_t* triangles = nullptr) {
     BakeOptions o = options;
     o.bounces = 0;
     const visdb::Bake b = bake(scene, o);
     const DirectField field(scene);
     if (triangles) *triangles = b.mesh.triangles.size();
-    return field_error(scene, b.mesh, [&](const glm::dvec3& x, const glm::dvec3& n) { return field.irradiance(x, n); })
+    return field_error(
+               scene, b.mesh,
+               [&](const glm::dvec3& x, const glm::dvec3& n) { return field.irradiance(x, n); })
         .relative_l1;
 }
 
@@ -104,7 +110,8 @@ TEST(DmBake, FieldErrorIsAFractionOfTheUnmeshedOne) {
         BakeOptions on;
         on.shading = shading;
         std::size_t t_off = 0, t_on = 0;
-        const double e_off = field_error_of(scene, off, &t_off), e_on = field_error_of(scene, on, &t_on);
+        const double e_off = field_error_of(scene, off, &t_off),
+                     e_on = field_error_of(scene, on, &t_on);
         // Patch shades carry the hemicube's own sampling error on the small new triangles
         EXPECT_GT(e_off, 0.15) << to_string(shading);
         EXPECT_LT(e_on, (shading == Shading::Exact ? 0.15 : 0.75) * e_off) << to_string(shading);

@@ -9,14 +9,13 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <glm/geometric.hpp>
 #include <iomanip>
 #include <map>
 #include <random>
 #include <stdexcept>
 #include <unordered_map>
 #include <vector>
-
-#include <glm/geometric.hpp>
 
 namespace abrad::radiosity {
 namespace {
@@ -26,12 +25,14 @@ using Outputs = std::vector<MeshedRegion>;
 constexpr double kPi = 3.14159265358979323846;
 
 /// Region from positions and triangles; triangles are flipped to be CCW seen from the normal.
-PlanarRegion make_region(glm::dvec3 normal, std::vector<glm::dvec3> positions, std::vector<glm::u32vec3> tris) {
+PlanarRegion make_region(glm::dvec3 normal, std::vector<glm::dvec3> positions,
+                         std::vector<glm::u32vec3> tris) {
     PlanarRegion r;
     r.normal = normal;
     r.positions = std::move(positions);
     for (glm::u32vec3 t : tris) {
-        const glm::dvec3 c = glm::cross(r.positions[t[1]] - r.positions[t[0]], r.positions[t[2]] - r.positions[t[0]]);
+        const glm::dvec3 c = glm::cross(r.positions[t[1]] - r.positions[t[0]],
+                                        r.positions[t[2]] - r.positions[t[0]]);
         if (glm::dot(c, normal) < 0.0) std::swap(t[1], t[2]);
         r.triangles.push_back(t);
     }
@@ -70,7 +71,8 @@ double area_out(const MeshedRegion& m) { return area_of(m.positions, m.triangles
 /// Every triangle is counter-clockwise seen from the normal and not degenerate.
 void expect_ccw(const MeshedRegion& m, glm::dvec3 normal) {
     for (const auto& t : m.triangles) {
-        const glm::dvec3 c = glm::cross(m.positions[t[1]] - m.positions[t[0]], m.positions[t[2]] - m.positions[t[0]]);
+        const glm::dvec3 c = glm::cross(m.positions[t[1]] - m.positions[t[0]],
+                                        m.positions[t[2]] - m.positions[t[0]]);
         ASSERT_GT(glm::dot(c, normal), 0.0);
     }
 }
@@ -135,10 +137,12 @@ std::size_t no_t_vertices_violations(const Outputs& outs, bool report = true, do
                                 if (s <= 1e-9 || s >= 1.0 - 1e-9) continue;
                                 if (glm::distance(a + s * d, all[i]) >= eps) continue;
                                 if (++bad <= 3 && report)
-                                    ADD_FAILURE() << std::setprecision(17) << "T-vertex (" << all[i].x << ", " << all[i].y << ", " << all[i].z
-                                                  << ") inside edge (" << a.x << ", " << a.y << ", " << a.z << ")-("
-                                                  << b.x << ", " << b.y << ", " << b.z << ") at distance "
-                                                  << glm::distance(a + s * d, all[i]);
+                                    ADD_FAILURE()
+                                        << std::setprecision(17) << "T-vertex (" << all[i].x << ", "
+                                        << all[i].y << ", " << all[i].z << ") inside edge (" << a.x
+                                        << ", " << a.y << ", " << a.z << ")-(" << b.x << ", " << b.y
+                                        << ", " << b.z << ") at distance "
+                                        << glm::distance(a + s * d, all[i]);
                             }
                         }
             }
@@ -158,7 +162,8 @@ void expect_segment_is_edges(const MeshedRegion& m, glm::dvec3 a, glm::dvec3 b, 
         for (int k = 0; k < 3; ++k) {
             const std::uint32_t i = t[k], j = t[(k + 1) % 3];
             if (on_line(m.positions[i]) && on_line(m.positions[j]))
-                on[{std::min(i, j), std::max(i, j)}] = glm::distance(m.positions[i], m.positions[j]);
+                on[{std::min(i, j), std::max(i, j)}] =
+                    glm::distance(m.positions[i], m.positions[j]);
         }
     double sum = 0.0;
     for (const auto& [e, l] : on) sum += l;
@@ -174,7 +179,8 @@ double min_angle_deg(const MeshedRegion& m) {
     double best = 180.0;
     for (const auto& t : m.triangles)
         for (int k = 0; k < 3; ++k) {
-            const glm::dvec3 a = m.positions[t[k]], b = m.positions[t[(k + 1) % 3]], c = m.positions[t[(k + 2) % 3]];
+            const glm::dvec3 a = m.positions[t[k]], b = m.positions[t[(k + 1) % 3]],
+                             c = m.positions[t[(k + 2) % 3]];
             const double cs = glm::dot(glm::normalize(b - a), glm::normalize(c - a));
             best = std::min(best, std::acos(std::clamp(cs, -1.0, 1.0)) * 180.0 / kPi);
         }
@@ -188,7 +194,8 @@ void expect_common(const PlanarRegion& in, const MeshedRegion& m) {
     expect_distinct(m);
 }
 
-Outputs mesh(const std::vector<PlanarRegion>& regions, DmOptions opt = {}, DmStats* stats = nullptr) {
+Outputs mesh(const std::vector<PlanarRegion>& regions, DmOptions opt = {},
+             DmStats* stats = nullptr) {
     return mesh_regions(regions, opt, stats);
 }
 
@@ -225,8 +232,8 @@ TEST(DmMesh, CrossingSegmentsShareTheirCrossing) {
 
 TEST(DmMesh, SegmentsOnBoundaryAndOnInputEdge) {
     PlanarRegion r = unit_square();
-    r.constraints = {{glm::dvec3{0.2, 0, 0}, glm::dvec3{0.7, 0, 0}},   // on the bottom edge
-                     {glm::dvec3{0, 0, 0}, glm::dvec3{1, 1, 0}},       // on the input diagonal
+    r.constraints = {{glm::dvec3{0.2, 0, 0}, glm::dvec3{0.7, 0, 0}},     // on the bottom edge
+                     {glm::dvec3{0, 0, 0}, glm::dvec3{1, 1, 0}},         // on the input diagonal
                      {glm::dvec3{1, 0.5, 0}, glm::dvec3{1.5, 0.5, 0}}};  // outside, touching
     DmStats st;
     const Outputs out = mesh({r}, {}, &st);
@@ -254,7 +261,8 @@ TEST(DmMesh, EndpointNearBoundaryIsSnappedOntoIt) {
     for (const auto& p : out[0].positions) EXPECT_GE(p.y, 0.0);
     // No sliver between the snapped end and the boundary
     for (const auto& t : out[0].triangles)
-        EXPECT_GT(tri_area(out[0].positions[t[0]], out[0].positions[t[1]], out[0].positions[t[2]]), 1e-4);
+        EXPECT_GT(tri_area(out[0].positions[t[0]], out[0].positions[t[1]], out[0].positions[t[2]]),
+                  1e-4);
     EXPECT_GE(st.points_merged, 1u);
     expect_no_t_vertices(out);
 }
@@ -266,8 +274,10 @@ TEST(DmMesh, NearDuplicateEndpointsAreMerged) {
     DmStats st;
     const Outputs out = mesh({r}, {}, &st);
     expect_common(r, out[0]);
-    const auto near = std::count_if(out[0].positions.begin(), out[0].positions.end(),
-                                    [](const glm::dvec3& p) { return glm::distance(p, {0.5, 0.5, 0}) < 1e-6; });
+    const auto near =
+        std::count_if(out[0].positions.begin(), out[0].positions.end(), [](const glm::dvec3& p) {
+            return glm::distance(p, {0.5, 0.5, 0}) < 1e-6;
+        });
     EXPECT_EQ(near, 1);
     EXPECT_EQ(st.points_merged, 1u);
     EXPECT_EQ(out[0].positions.size(), 7u);
@@ -290,7 +300,8 @@ TEST(DmMesh, HoleStaysEmpty) {
     const Outputs out = mesh({r});
     expect_common(r, out[0]);
     for (const auto& t : out[0].triangles) {
-        const glm::dvec3 c = (out[0].positions[t[0]] + out[0].positions[t[1]] + out[0].positions[t[2]]) / 3.0;
+        const glm::dvec3 c =
+            (out[0].positions[t[0]] + out[0].positions[t[1]] + out[0].positions[t[2]]) / 3.0;
         EXPECT_FALSE(c.x > 1 && c.x < 2 && c.y > 1 && c.y < 2) << "triangle in the hole";
     }
     for (const auto& p : out[0].positions) EXPECT_FALSE(p.x > 1 && p.x < 2 && p.y > 1 && p.y < 2);
@@ -304,13 +315,16 @@ TEST(DmMesh, NonConvexLShape) {
     // L = [0,2]x[0,1] + [0,1]x[1,2]
     const std::vector<glm::dvec3> pos = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0},
                                          {1, 1, 0}, {0, 1, 0}, {0, 2, 0}, {1, 2, 0}};
-    PlanarRegion r = make_region({0, 0, 1}, pos, {{0, 1, 4}, {0, 4, 5}, {1, 2, 3}, {1, 3, 4}, {5, 4, 7}, {5, 7, 6}});
-    r.constraints = {{glm::dvec3{0.5, 0.5, 0}, glm::dvec3{1.5, 1.5, 0}}, {glm::dvec3{1.5, 0.5, 0}, glm::dvec3{0.5, 1.7, 0}}};
+    PlanarRegion r = make_region(
+        {0, 0, 1}, pos, {{0, 1, 4}, {0, 4, 5}, {1, 2, 3}, {1, 3, 4}, {5, 4, 7}, {5, 7, 6}});
+    r.constraints = {{glm::dvec3{0.5, 0.5, 0}, glm::dvec3{1.5, 1.5, 0}},
+                     {glm::dvec3{1.5, 0.5, 0}, glm::dvec3{0.5, 1.7, 0}}};
     const Outputs out = mesh({r});
     expect_common(r, out[0]);
     EXPECT_NEAR(area_out(out[0]), 3.0, 1e-12);
     for (const auto& t : out[0].triangles) {
-        const glm::dvec3 c = (out[0].positions[t[0]] + out[0].positions[t[1]] + out[0].positions[t[2]]) / 3.0;
+        const glm::dvec3 c =
+            (out[0].positions[t[0]] + out[0].positions[t[1]] + out[0].positions[t[2]]) / 3.0;
         EXPECT_FALSE(c.x > 1 && c.y > 1) << "triangle in the notch";
     }
     for (const auto& p : out[0].positions) EXPECT_FALSE(p.x > 1 + 1e-12 && p.y > 1 + 1e-12);
@@ -319,7 +333,8 @@ TEST(DmMesh, NonConvexLShape) {
 
 TEST(DmMesh, InternalTJunction) {
     // Rectangle [0,2]x[0,1] with vertex 2 at (1,0), over one triangle whose edge 0-1 spans it
-    const std::vector<glm::dvec3> pos = {{0, 0, 0}, {2, 0, 0}, {1, 0, 0}, {0, 1, 0}, {2, 1, 0}, {1, -1, 0}};
+    const std::vector<glm::dvec3> pos = {{0, 0, 0}, {2, 0, 0}, {1, 0, 0},
+                                         {0, 1, 0}, {2, 1, 0}, {1, -1, 0}};
     PlanarRegion r = make_region({0, 0, 1}, pos, {{0, 2, 3}, {2, 4, 3}, {2, 1, 4}, {0, 5, 1}});
     r.constraints = {{glm::dvec3{0.5, -0.4, 0}, glm::dvec3{1.5, 0.6, 0}}};
     const Outputs out = mesh({r});
@@ -337,7 +352,8 @@ std::vector<PlanarRegion> floor_and_wall(int n = 10) {
 }
 
 /// Every vertex of a on the segment p-q is a vertex of b at the identical position.
-void expect_shared_on_line(const MeshedRegion& a, const MeshedRegion& b, glm::dvec3 p, glm::dvec3 q) {
+void expect_shared_on_line(const MeshedRegion& a, const MeshedRegion& b, glm::dvec3 p,
+                           glm::dvec3 q) {
     for (const auto& x : a.positions) {
         const glm::dvec3 d = q - p;
         const double s = glm::dot(x - p, d) / glm::dot(d, d);
@@ -388,17 +404,20 @@ TEST(DmMesh, RefinementReachesMinimumAngle) {
     expect_no_t_vertices(out);
     expect_segment_is_edges(out[0], {0.1, 0.3, 0}, {0.9, 0.5, 0});
     expect_segment_is_edges(out[1], {0.37, 0, 0}, {0.6, 0, 0.8});
-    std::printf("refinement: %zu + %zu triangles, %zu rounds\n", out[0].triangles.size(), out[1].triangles.size(),
-                st.rounds);
+    std::printf("refinement: %zu + %zu triangles, %zu rounds\n", out[0].triangles.size(),
+                out[1].triangles.size(), st.rounds);
 }
 
 TEST(DmMesh, TiltedCreaseConformsWithRefinement) {
     // Two tilted planes meeting along the x axis (a roof ridge): 6x6 grid and 2 triangles
     const glm::dvec3 a{1, 0, 0}, b{0, 0.8, 0.6}, c{0, -0.8, 0.6};
-    std::vector<PlanarRegion> regions = {make_grid(6, {0, 0, 0}, a, b, glm::normalize(glm::cross(a, b))),
-                                         make_grid(1, {0, 0, 0}, a, c, glm::normalize(glm::cross(c, a)))};
-    regions[0].constraints = {{glm::dvec3{0.3, 0, 0}, 0.3 * a + 0.9 * b}, {0.05 * a + 0.5 * b, 0.95 * a + 0.45 * b}};
-    regions[1].constraints = {{0.8 * a, 0.5 * a + 0.7 * c}, {0.1 * a + 0.2 * c, 0.9 * a + 0.25 * c}};
+    std::vector<PlanarRegion> regions = {
+        make_grid(6, {0, 0, 0}, a, b, glm::normalize(glm::cross(a, b))),
+        make_grid(1, {0, 0, 0}, a, c, glm::normalize(glm::cross(c, a)))};
+    regions[0].constraints = {{glm::dvec3{0.3, 0, 0}, 0.3 * a + 0.9 * b},
+                              {0.05 * a + 0.5 * b, 0.95 * a + 0.45 * b}};
+    regions[1].constraints = {{0.8 * a, 0.5 * a + 0.7 * c},
+                              {0.1 * a + 0.2 * c, 0.9 * a + 0.25 * c}};
     DmOptions opt;
     opt.min_angle_deg = 20.0;
     DmStats st;
@@ -438,7 +457,8 @@ TEST(DmMesh, ManyRandomCrossingSegments) {
     // Euler: a disc triangulated with V vertices and B boundary vertices has 2V - B - 2 triangles
     std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_use;
     for (const auto& t : out[0].triangles)
-        for (int k = 0; k < 3; ++k) ++edge_use[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
+        for (int k = 0; k < 3; ++k)
+            ++edge_use[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
     std::size_t boundary = 0;
     for (const auto& [e, c] : edge_use) boundary += c == 1 ? 1 : 0;
     EXPECT_EQ(out[0].triangles.size(), 2 * out[0].positions.size() - boundary - 2);
@@ -458,9 +478,12 @@ TEST(DmMesh, Timing3200TrianglesWith200Segments) {
         opt.min_angle_deg = angle;
         const auto t0 = std::chrono::steady_clock::now();
         const Outputs out = mesh({floor}, opt);
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        std::printf("3200-triangle floor, 200 segments, min angle %.0f: %.1f ms, %zu triangles out\n", angle, ms,
-                    out[0].triangles.size());
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+        std::printf(
+            "3200-triangle floor, 200 segments, min angle %.0f: %.1f ms, %zu triangles out\n",
+            angle, ms, out[0].triangles.size());
         EXPECT_NEAR(area_out(out[0]), 16.0, 16e-9);
     }
 }

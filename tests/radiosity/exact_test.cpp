@@ -3,9 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <numbers>
-
 #include <glm/geometric.hpp>
+#include <numbers>
 
 #include "analytic.h"
 
@@ -56,10 +55,11 @@ TEST(ExactShading, OpaqueAndTranslucentOccluderMatchClosedForm) {
     for (double alpha : {1.0, 0.4}) {
         std::vector<Patch> occ;
         add_quad(occ, {-0.2, -0.1, 1}, {-0.2, 0.25, 1}, {0.15, 0.25, 1}, {0.15, -0.1, 1}, alpha);
-        for (glm::dvec3 x : {glm::dvec3(0, 0, 0), glm::dvec3(0.3, -0.2, 0), glm::dvec3(-0.6, 0.4, 0),
-                             glm::dvec3(2.5, 0, 0)}) {
+        for (glm::dvec3 x : {glm::dvec3(0, 0, 0), glm::dvec3(0.3, -0.2, 0),
+                             glm::dvec3(-0.6, 0.4, 0), glm::dvec3(2.5, 0, 0)}) {
             const double full = clipped(x, -9, 9, -9, 9);
-            const double shadow = clipped(x, 2 * -0.2 - x.x, 2 * 0.15 - x.x, 2 * -0.1 - x.y, 2 * 0.25 - x.y);
+            const double shadow =
+                clipped(x, 2 * -0.2 - x.x, 2 * 0.15 - x.x, 2 * -0.1 - x.y, 2 * 0.25 - x.y);
             EXPECT_NEAR(visible(x, {0, 0, 1}, light, occ), full - alpha * shadow, 1e-12)
                 << "alpha=" << alpha << " x=" << x.x << "," << x.y;
         }
@@ -74,7 +74,8 @@ TEST(ExactShading, StackedOccluders) {
     std::vector<Patch> occ;
     add_quad(occ, {-0.2, -0.2, 1}, {-0.2, 0.2, 1}, {0.2, 0.2, 1}, {0.2, -0.2, 1});
     add_quad(occ, {-0.1, -0.1, 1.5}, {-0.1, 0.1, 1.5}, {0.1, 0.1, 1.5}, {0.1, -0.1, 1.5}, 0.5);
-    const double expected = clipped(x, -9, 9, -9, 9) - clipped(x, -0.4 - x.x, 0.4 - x.x, -0.4 - x.y, 0.4 - x.y);
+    const double expected =
+        clipped(x, -9, 9, -9, 9) - clipped(x, -0.4 - x.x, 0.4 - x.x, -0.4 - x.y, 0.4 - x.y);
     // The smaller square at 1.5 projects to s ↦ (4/3)s - x/3 ... it lies inside the
     // big shadow: check the premise, then the value
     EXPECT_NEAR(visible(x, {0, 0, 1}, light, occ), expected, 1e-12);
@@ -92,7 +93,9 @@ TEST(ExactShading, StackedOccluders) {
 // quadrature of cosθ_x cosθ_L / (π r²) over the light (independent of Lambert's formula).
 TEST(ExactShading, TiltedReceiverAgainstQuadrature) {
     const auto light = light_square();
-    struct Case { glm::dvec3 x, n; };
+    struct Case {
+        glm::dvec3 x, n;
+    };
     for (const Case& c : {Case{{-1.0, 0.0, 1.0}, {1, 0, 0}}, Case{{0.2, 0.1, 1.4}, {1, 0, 0}},
                           Case{{0.0, -1.2, 0.3}, glm::normalize(glm::dvec3(0, 1, 1))}}) {
         const int m = 1000;

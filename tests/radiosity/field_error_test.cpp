@@ -1,17 +1,16 @@
 #include "abrad/radiosity/field_error.h"
-#include "scenes.h"
-
-#include <atomic>
-#include <cmath>
-#include <stdexcept>
-#include <string>
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <cmath>
 #include <glm/geometric.hpp>
+#include <stdexcept>
+#include <string>
 
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
+#include "scenes.h"
 
 namespace abrad::radiosity {
 namespace {

@@ -7,10 +7,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <glm/geometric.hpp>
 #include <numbers>
 #include <vector>
-
-#include <glm/geometric.hpp>
 
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/bvh.h"
@@ -75,8 +74,8 @@ double stat(const visdb::Bake& b, const std::string& key) {
 
 // Every vertex of `surface` (by index) at floor height satisfies `expected(x)` for G.
 template <typename Expected>
-int check_floor(const visdb::Bake& b, std::uint32_t surface, const glm::dvec3& origin, Expected&& expected,
-                double rel = 1e-6) {
+int check_floor(const visdb::Bake& b, std::uint32_t surface, const glm::dvec3& origin,
+                Expected&& expected, double rel = 1e-6) {
     int n = 0;
     for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
         if (b.mesh.triangle_surface[t] != surface) continue;
@@ -85,7 +84,8 @@ int check_floor(const visdb::Bake& b, std::uint32_t surface, const glm::dvec3& o
             const glm::dvec3 x = b.mesh.positions[v] - origin;
             const double e = expected(x);
             if (std::isnan(e)) continue;  // not checked there
-            EXPECT_NEAR(b.mesh.irradiance[v].y, e, rel * kGreen + 1e-6) << "at " << x.x << ", " << x.y;
+            EXPECT_NEAR(b.mesh.irradiance[v].y, e, rel * kGreen + 1e-6)
+                << "at " << x.x << ", " << x.y;
             ++n;
         }
     }
@@ -114,7 +114,8 @@ TEST(HardCases, SurveyCoordinatesKeepTheExactField) {
         for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
             const glm::dvec3 x = b.mesh.positions[v] - offset;
             if (std::abs(x.z - 0.001) < 1e-9 && b.mesh.normals[v].z > 0.5) {
-                const double f = testing::ff_parallel_rect(-0.5 - x.x, 0.5 - x.x, -0.5 - x.y, 0.5 - x.y, 1.499);
+                const double f =
+                    testing::ff_parallel_rect(-0.5 - x.x, 0.5 - x.x, -0.5 - x.y, 0.5 - x.y, 1.499);
                 EXPECT_NEAR(b.mesh.irradiance[v].y, kGreen * f, 1e-6 * kGreen);
             }
         }
@@ -128,8 +129,9 @@ TEST(HardCases, SliversAndNearZeroAreaTrianglesGetTheClosedForm) {
     visdb::Surface fan;
     fan.name = "fan";
     fan.material = 0;
-    fan.mesh.positions = {{-1, 1, 0}, {1, 1, 0}, {1, 1.2, 0}, {1 - 1e-7, 1.2, 0}, {0.0, 1.2 - 1e-12, 0},
-                          {-1, 1.2, 0}, {0.5, 1.2, 0}};
+    fan.mesh.positions = {
+        {-1, 1, 0},   {1, 1, 0},    {1, 1.2, 0}, {1 - 1e-7, 1.2, 0}, {0.0, 1.2 - 1e-12, 0},
+        {-1, 1.2, 0}, {0.5, 1.2, 0}};
     fan.mesh.triangles = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 5}, {0, 3, 6}};
     // {0,3,6}: (1-1e-7, 1.2) and (0.5, 1.2) are on the far edge: an overlap sliver of the fan
     fan.mesh.triangles.push_back({0, 6, 6});  // zero area: dropped, counted
@@ -142,7 +144,8 @@ TEST(HardCases, SliversAndNearZeroAreaTrianglesGetTheClosedForm) {
         expect_sane(b);
         EXPECT_EQ(stat(b, "degenerate_skipped"), 1.0);
         if (shading == Shading::Exact) {
-            const int n = check_floor(b, 2, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); });
+            const int n = check_floor(b, 2, glm::dvec3(0.0),
+                                      [](const glm::dvec3& x) { return kGreen * ff_light(x); });
             EXPECT_GE(n, 15);
         }
     }
@@ -157,8 +160,12 @@ TEST(HardCases, CoplanarOverlappingFacesDoNotShadowEachOther) {
         o.dm = dm;
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
-        EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); }), 300);
-        EXPECT_GT(check_floor(b, 2, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); }), 50);
+        EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0),
+                              [](const glm::dvec3& x) { return kGreen * ff_light(x); }),
+                  300);
+        EXPECT_GT(check_floor(b, 2, glm::dvec3(0.0),
+                              [](const glm::dvec3& x) { return kGreen * ff_light(x); }),
+                  50);
     }
 }
 
@@ -171,8 +178,8 @@ TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
     scene.surfaces.push_back(grid("ceiling", 2, -1, 1, -1, 1, 1.5, 4, false));
     const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
     for (int k = 0; k < 4; ++k)  // walls facing inwards, 5×5 cells: seams cross the face edges
-        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 2, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
-                                           {0, 0, 1.5}, 5));
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 2, c[(k + 1) % 4],
+                                           c[k] - c[(k + 1) % 4], {0, 0, 1.5}, 5));
     for (Visibility method : {Visibility::ABuffer, Visibility::ZBuffer}) {
         BakeOptions o = direct();
         o.dm = false;
@@ -181,7 +188,8 @@ TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
         EXPECT_NEAR(stat(b, "mean_form_factor_sum"), 1.0, 1e-9);
-        EXPECT_NEAR(stat(b, "received_power_w"), stat(b, "emitted_power_w"), 1e-9 * stat(b, "emitted_power_w"));
+        EXPECT_NEAR(stat(b, "received_power_w"), stat(b, "emitted_power_w"),
+                    1e-9 * stat(b, "emitted_power_w"));
     }
     BakeOptions exact = direct();  // DM on, exact shading
     const visdb::Bake b = bake(scene, exact);
@@ -196,8 +204,9 @@ TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
     // corners, where two walls meet the floor (see the disabled test below)
     EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0),
                           [](const glm::dvec3& x) {
-                              return std::abs(x.x) == 1.0 && std::abs(x.y) == 1.0 ? std::nan("")
-                                                                                   : kGreen * ff_light(x);
+                              return std::abs(x.x) == 1.0 && std::abs(x.y) == 1.0
+                                         ? std::nan("")
+                                         : kGreen * ff_light(x);
                           }),
               370);
 }
@@ -210,15 +219,16 @@ TEST(HardCases, DISABLED_FloorCornersOfAClosedBoxGetTheClosedForm) {
     visdb::Scene scene = base_scene();
     const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
     for (int k = 0; k < 4; ++k)
-        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 2, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
-                                           {0, 0, 1.5}, 1));
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 2, c[(k + 1) % 4],
+                                           c[k] - c[(k + 1) % 4], {0, 0, 1.5}, 1));
     BakeOptions o = direct();
     o.dm = false;
     const visdb::Bake b = bake(scene, o);
     EXPECT_EQ(check_floor(b, 0, glm::dvec3(0.0),
                           [](const glm::dvec3& x) {
-                              return std::abs(x.x) == 1.0 && std::abs(x.y) == 1.0 ? kGreen * ff_light(x)
-                                                                                   : std::nan("");
+                              return std::abs(x.x) == 1.0 && std::abs(x.y) == 1.0
+                                         ? kGreen * ff_light(x)
+                                         : std::nan("");
                           }),
               12);
 }
@@ -232,7 +242,8 @@ TEST(HardCases, OccluderTouchingTheReceiver) {
     scene.surfaces.push_back(grid("box_top", 2, -s, s, -s, s, h, 2, true));
     const glm::dvec3 c[4] = {{-s, -s, 0}, {s, -s, 0}, {s, s, 0}, {-s, s, 0}};
     for (int k = 0; k < 4; ++k)  // sides facing outwards
-        scene.surfaces.push_back(quad_grid("box" + std::to_string(k), 2, c[k], c[(k + 1) % 4] - c[k], {0, 0, h}, 2));
+        scene.surfaces.push_back(
+            quad_grid("box" + std::to_string(k), 2, c[k], c[(k + 1) % 4] - c[k], {0, 0, h}, 2));
     for (bool dm : {false, true}) {
         BakeOptions o = direct();
         o.dm = dm;
@@ -258,12 +269,15 @@ TEST(HardCases, TinyPatchesFarFromTheLightAreNotLost) {
     for (int i = 0; i < 10; ++i)
         for (int j = 0; j < 10; ++j) {
             const double x = -1.0 + 0.213 * i, y = -1.0 + 0.197 * j;
-            testing::add_quad(patches, {x, y, 5}, {x, y + 0.01, 5}, {x + 0.01, y + 0.01, 5}, {x + 0.01, y, 5});
+            testing::add_quad(patches, {x, y, 5}, {x, y + 0.01, 5}, {x + 0.01, y + 0.01, 5},
+                              {x + 0.01, y, 5});
         }
     const Hemicube hc(50);
     const ShooterFrame frame = ShooterFrame::at({0, 0, 0}, {0, 0, 1});
-    const ShootResult a = shoot(frame, patches, hc, {.method = Visibility::ABuffer, .subpixels = 8, .occlusion = false});
-    const ShootResult z = shoot(frame, patches, hc, {.method = Visibility::ZBuffer, .subpixels = 8, .occlusion = false});
+    const ShootResult a = shoot(
+        frame, patches, hc, {.method = Visibility::ABuffer, .subpixels = 8, .occlusion = false});
+    const ShootResult z = shoot(
+        frame, patches, hc, {.method = Visibility::ZBuffer, .subpixels = 8, .occlusion = false});
     double max_delta = 0.0;
     for (std::size_t p = 0; p < hc.pixel_count(); ++p) max_delta = std::max(max_delta, hc.delta(p));
     double sum_a = 0.0, sum_exact = 0.0, sum_z = 0.0;
@@ -273,7 +287,8 @@ TEST(HardCases, TinyPatchesFarFromTheLightAreNotLost) {
                          point_polygon_form_factor(frame.origin, frame.n, patches[q + 1].p);
         const double fa = a.form_factor[q] + a.form_factor[q + 1];
         EXPECT_GT(fa, 0.0) << "patch " << q / 2 << " lost";
-        EXPECT_LE(std::abs(fa - f), 2.0 * max_delta / 64.0) << "patch " << q / 2;  // two 8x8 samples
+        EXPECT_LE(std::abs(fa - f), 2.0 * max_delta / 64.0)
+            << "patch " << q / 2;  // two 8x8 samples
         lost_z += (z.form_factor[q] + z.form_factor[q + 1]) == 0.0;
         sum_a += fa;
         sum_z += z.form_factor[q] + z.form_factor[q + 1];
@@ -281,20 +296,22 @@ TEST(HardCases, TinyPatchesFarFromTheLightAreNotLost) {
     }
     EXPECT_GT(sum_a, sum_exact / 3.0);
     EXPECT_LT(sum_a, 3.0 * sum_exact);
-    std::printf("tiny patches: A-buffer sum / exact = %.3f, Z-buffer sum / exact = %.3f\n", sum_a / sum_exact,
-                sum_z / sum_exact);
+    std::printf("tiny patches: A-buffer sum / exact = %.3f, Z-buffer sum / exact = %.3f\n",
+                sum_a / sum_exact, sum_z / sum_exact);
     EXPECT_GT(lost_z, 50);  // the point-sampled item buffer misses most of them
     EXPECT_GT(a.undersampled_pixels, 50u);
 }
 
 TEST(HardCases, ManyNearlyCollinearShadowEdges) {
     // Thirty stacked slats 1 µm apart in height and in y, each turned by a further 0.125 µrad:
-    // their long edges, and so their shadow edges on the floor, are nearly collinear. The discontinuity mesh must keep the
-    // floor's area, and every vertex must carry the exact irradiance (DirectField).
+    // their long edges, and so their shadow edges on the floor, are nearly collinear. The
+    // discontinuity mesh must keep the floor's area, and every vertex must carry the exact
+    // irradiance (DirectField).
     visdb::Scene scene = base_scene();
     for (int k = 0; k < 30; ++k) {
-        scene.surfaces.push_back(quad_grid("slat" + std::to_string(k), 2, {-0.4, 1e-6 * k, 0.75 + 1e-6 * k},
-                                           {0.8, 1e-7 * k, 0}, {0, 0.05, 0}, 1));
+        scene.surfaces.push_back(quad_grid("slat" + std::to_string(k), 2,
+                                           {-0.4, 1e-6 * k, 0.75 + 1e-6 * k}, {0.8, 1e-7 * k, 0},
+                                           {0, 0.05, 0}, 1));
     }
     BakeOptions o = direct();
     o.lights = LightModel::Area;
@@ -305,8 +322,9 @@ TEST(HardCases, ManyNearlyCollinearShadowEdges) {
     for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
         if (b.mesh.triangle_surface[t] == 0) {
             const auto& tri = b.mesh.triangles[t];
-            floor_area += 0.5 * glm::length(glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
-                                                       b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
+            floor_area +=
+                0.5 * glm::length(glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
+                                             b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
         }
     EXPECT_NEAR(floor_area, 4.0, 1e-9);
     EXPECT_GT(stat(b, "triangles"), stat(b, "dm_triangles_before"));
@@ -347,8 +365,8 @@ TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
     scene.surfaces.push_back(grid("ceiling", 0, -1, 1, -1, 1, 1.5, 4, false));
     const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
     for (int k = 0; k < 4; ++k)
-        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 0, c[(k + 1) % 4], c[k] - c[(k + 1) % 4],
-                                           {0, 0, 1.5}, 4));
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 0, c[(k + 1) % 4],
+                                           c[k] - c[(k + 1) % 4], {0, 0, 1.5}, 4));
     scene.materials[0].reflectance = {0.99, 0.99, 0.99};
     BakeOptions o;
     o.bounces = -1;  // interreflection until converged
@@ -357,8 +375,9 @@ TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
     expect_sane(b);
     const double emitted = stat(b, "energy_emitted_w");
     EXPECT_GT(emitted, 0.0);
-    EXPECT_NEAR(stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"), emitted,
-                1e-6 * emitted);
+    EXPECT_NEAR(
+        stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"),
+        emitted, 1e-6 * emitted);
     EXPECT_LT(stat(b, "energy_escaped_w"), 1e-3 * emitted);
     // Mean radiosity over the box's inner area (4 + 4 + 4·3 m² = 20 m², light excluded): at
     // most the enclosure value (ΣE·A_L)/(A·(1 − ρ)) for the green channel
@@ -366,9 +385,12 @@ TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
     for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
         if (b.mesh.triangle_surface[t] == 1) continue;
         const auto& tri = b.mesh.triangles[t];
-        const double a = 0.5 * glm::length(glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
-                                                      b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
-        sum += a * (b.mesh.radiosity[tri.x].y + b.mesh.radiosity[tri.y].y + b.mesh.radiosity[tri.z].y) / 3.0;
+        const double a =
+            0.5 * glm::length(glm::cross(b.mesh.positions[tri.y] - b.mesh.positions[tri.x],
+                                         b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
+        sum += a *
+               (b.mesh.radiosity[tri.x].y + b.mesh.radiosity[tri.y].y + b.mesh.radiosity[tri.z].y) /
+               3.0;
         area += a;
     }
     EXPECT_NEAR(area, 20.0, 1e-9);
@@ -383,13 +405,16 @@ TEST(Cull, CandidatesAreThePatchesInFrontWithinReach) {
     std::vector<Patch> patches;
     const Patch light{{{-0.5, -0.5, 1.5}, {-0.5, 0.5, 1.5}, {0.5, 0.5, 1.5}}, 1.0};  // faces down
     patches.push_back(light);
-    testing::add_quad(patches, {-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0});      // 1, 2: below
-    testing::add_quad(patches, {-1, -1, 2}, {1, -1, 2}, {1, 1, 2}, {-1, 1, 2});      // 3, 4: above
-    testing::add_quad(patches, {-1, -1, 1.5}, {1, -1, 1.5}, {1, 1, 1.5}, {-1, 1, 1.5});  // 5, 6: in plane
-    testing::add_quad(patches, {-1, -1, 1}, {1, -1, 1}, {1, -1, 2}, {-1, -1, 2});    // 7, 8: straddling
-    testing::add_quad(patches, {50, 0, 0}, {51, 0, 0}, {51, 1, 0}, {50, 1, 0});      // 9, 10: far below
+    testing::add_quad(patches, {-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0});  // 1, 2: below
+    testing::add_quad(patches, {-1, -1, 2}, {1, -1, 2}, {1, 1, 2}, {-1, 1, 2});  // 3, 4: above
+    testing::add_quad(patches, {-1, -1, 1.5}, {1, -1, 1.5}, {1, 1, 1.5},
+                      {-1, 1, 1.5});  // 5, 6: in plane
+    testing::add_quad(patches, {-1, -1, 1}, {1, -1, 1}, {1, -1, 2},
+                      {-1, -1, 2});                                              // 7, 8: straddling
+    testing::add_quad(patches, {50, 0, 0}, {51, 0, 0}, {51, 1, 0}, {50, 1, 0});  // 9, 10: far below
     const Bvh bvh(patches);
-    EXPECT_EQ(light_candidates(bvh, patches, 0, 0.0), (std::vector<std::uint32_t>{1, 2, 7, 8, 9, 10}));
+    EXPECT_EQ(light_candidates(bvh, patches, 0, 0.0),
+              (std::vector<std::uint32_t>{1, 2, 7, 8, 9, 10}));
     EXPECT_EQ(light_candidates(bvh, patches, 0, 10.0), (std::vector<std::uint32_t>{1, 2, 7, 8}));
 }
 
@@ -409,7 +434,8 @@ TEST(Cull, ReachDropsOnlyWhatLiesBeyondItWithinTheStatedBound) {
     const visdb::Bake a = bake(scene, full), b = bake(scene, near);
     expect_sane(b);
     ASSERT_EQ(a.mesh.positions.size(), b.mesh.positions.size());
-    const double bound = kGreen * 1.0 / (std::numbers::pi * (10.0 - std::sqrt(0.5)) * (10.0 - std::sqrt(0.5)));
+    const double bound =
+        kGreen * 1.0 / (std::numbers::pi * (10.0 - std::sqrt(0.5)) * (10.0 - std::sqrt(0.5)));
     double max_diff = 0.0;
     for (std::size_t v = 0; v < a.mesh.positions.size(); ++v) {
         const double d = a.mesh.irradiance[v].y - b.mesh.irradiance[v].y;
@@ -419,7 +445,9 @@ TEST(Cull, ReachDropsOnlyWhatLiesBeyondItWithinTheStatedBound) {
     }
     EXPECT_GT(max_diff, 0.0);  // the far light did reach, a little
     // Within the first room, the near light's part is the closed form
-    EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0), [](const glm::dvec3& x) { return kGreen * ff_light(x); }), 380);
+    EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0),
+                          [](const glm::dvec3& x) { return kGreen * ff_light(x); }),
+              380);
 }
 
 }  // namespace

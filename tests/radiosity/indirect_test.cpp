@@ -4,11 +4,11 @@
 
 #include "abrad/radiosity/indirect.h"
 
-#include <cmath>
-#include <numbers>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <glm/geometric.hpp>
+#include <numbers>
 
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
@@ -19,8 +19,8 @@
 namespace abrad::radiosity {
 namespace {
 
-using testing::ff_parallel_rect;
 using abrad::testing::quad_grid;
+using testing::ff_parallel_rect;
 
 double stat(const visdb::Bake& b, const std::string& key) {
     for (const auto& [k, v] : b.statistics)
@@ -57,7 +57,8 @@ visdb::Scene room(const RoomSpec& spec) {
     s.materials.push_back({"light", grey(spec.light), {10, 10, 10}, 1.0});
     const glm::dvec3 mid(0, 0, 1.5);
     if (!spec.open_floor)
-        s.surfaces.push_back(facing("floor", 0, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, spec.cells, mid));
+        s.surfaces.push_back(
+            facing("floor", 0, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, spec.cells, mid));
     s.surfaces.push_back(facing("wall -y", 1, {-2, -2, 0}, {4, 0, 0}, {0, 0, 3}, 6, mid));
     s.surfaces.push_back(facing("wall +y", 1, {-2, 2, 0}, {4, 0, 0}, {0, 0, 3}, 6, mid));
     s.surfaces.push_back(facing("wall -x", 1, {-2, -2, 0}, {0, 4, 0}, {0, 0, 3}, 6, mid));
@@ -71,8 +72,9 @@ visdb::Scene room(const RoomSpec& spec) {
             if ((i == 3 || i == 4) && (j == 3 || j == 4)) continue;
             const auto base = static_cast<std::uint32_t>(ceiling.mesh.positions.size());
             const double x = -2 + 0.5 * i, y = -2 + 0.5 * j;
-            ceiling.mesh.positions.insert(ceiling.mesh.positions.end(),
-                                          {{x, y, 3}, {x + 0.5, y, 3}, {x + 0.5, y + 0.5, 3}, {x, y + 0.5, 3}});
+            ceiling.mesh.positions.insert(
+                ceiling.mesh.positions.end(),
+                {{x, y, 3}, {x + 0.5, y, 3}, {x + 0.5, y + 0.5, 3}, {x, y + 0.5, 3}});
             ceiling.mesh.triangles.push_back({base, base + 2, base + 1});  // facing down
             ceiling.mesh.triangles.push_back({base, base + 3, base + 2});
         }
@@ -108,8 +110,9 @@ BakeOptions quick(int bounces) {
 void expect_energy_balance(const visdb::Bake& b) {
     const double emitted = stat(b, "energy_emitted_w");
     EXPECT_NEAR(emitted, 10.0, 1e-9);
-    EXPECT_NEAR(stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"),
-                emitted, 1e-3 * emitted);
+    EXPECT_NEAR(
+        stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"),
+        emitted, 1e-3 * emitted);
 }
 
 TEST(Interreflection, UniformEnclosureMeanIrradianceIsPhiOverAOneMinusRho) {
@@ -154,7 +157,8 @@ TEST(Interreflection, OverRelaxationConvergesToTheSameLight) {
 TEST(Interreflection, EnergyBalanceWithAnOpening) {
     // Black room, open floor: the light's power escapes as F(centroid → floor opening)
     {
-        const visdb::Bake b = bake(room({.floor = 0, .walls = 0, .ceiling = 0, .open_floor = true}), quick(-1));
+        const visdb::Bake b =
+            bake(room({.floor = 0, .walls = 0, .ceiling = 0, .open_floor = true}), quick(-1));
         const double escaped = stat(b, "energy_escaped_w");
         // The hemicube (R = 50, 8×8 masks) gives the walls' edges along the opening a little
         // too much coverage: 3.547 W escape against 3.577 W (−0.8%)
@@ -204,8 +208,9 @@ TEST(Interreflection, LightReflectedFromTheFloorOntoWallsAndCeiling) {
     ASSERT_TRUE(probe.has_indirect());
     const DirectField direct(scene);
     const std::vector<ProbePoint> points = {
-        {{0.0, -2.0, 0.5}, {0, 1, 0}},  {{0.0, -2.0, 1.5}, {0, 1, 0}}, {{1.2, -2.0, 2.5}, {0, 1, 0}},
-        {{2.0, 0.7, 1.0}, {-1, 0, 0}},  {{1.0, 1.0, 3.0}, {0, 0, -1}}, {{-1.5, 0.25, 3.0}, {0, 0, -1}},
+        {{0.0, -2.0, 0.5}, {0, 1, 0}}, {{0.0, -2.0, 1.5}, {0, 1, 0}},
+        {{1.2, -2.0, 2.5}, {0, 1, 0}}, {{2.0, 0.7, 1.0}, {-1, 0, 0}},
+        {{1.0, 1.0, 3.0}, {0, 0, -1}}, {{-1.5, 0.25, 3.0}, {0, 0, -1}},
         {{0.0, 0.0, 1.5}, {0, 0, -1}},  // in the air, looking down (a grid point facing down)
     };
     const std::vector<visdb::Rgb> h = probe.at(points);
@@ -218,7 +223,8 @@ TEST(Interreflection, LightReflectedFromTheFloorOntoWallsAndCeiling) {
     // The baked vertices carry the element solution, interpolated: coarser, within 10%
     for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
         const glm::dvec3 x = b.mesh.positions[v], n = glm::dvec3(b.mesh.normals[v]);
-        if (std::abs(x.y + 2.0) > 1e-9 || x.z < 0.49 || x.z > 2.51 || std::abs(x.x) > 1.51) continue;
+        if (std::abs(x.y + 2.0) > 1e-9 || x.z < 0.49 || x.z > 2.51 || std::abs(x.x) > 1.51)
+            continue;
         const double expected = reflected_from_floor(x, n, rho);
         const double indirect = b.mesh.irradiance[v].y - direct.irradiance(x, n).y;
         EXPECT_NEAR(indirect, expected, 0.1 * expected) << "vertex at " << x.x << "," << x.z;
@@ -232,7 +238,8 @@ TEST(Interreflection, BlackRoomLightAndObstructionAgainstTheClosedForm) {
         visdb::Scene scene = room({.floor = 0, .walls = 0, .ceiling = 0});
         if (plate) {
             scene.materials.push_back({"plate", visdb::Rgb(0.0), {0, 0, 0}, 1.0});
-            scene.surfaces.push_back(abrad::testing::grid("plate", 4, -1.9, 0.0, -1.9, 1.9, 1.5, 2, true));
+            scene.surfaces.push_back(
+                abrad::testing::grid("plate", 4, -1.9, 0.0, -1.9, 1.9, 1.5, 2, true));
         }
         const visdb::Bake b = bake(scene, quick(-1));
         const PointIrradiance probe(scene, &b);

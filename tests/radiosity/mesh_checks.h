@@ -4,11 +4,10 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <glm/geometric.hpp>
 #include <map>
 #include <utility>
 #include <vector>
-
-#include <glm/geometric.hpp>
 
 #include "abrad/visdb/model.h"
 
@@ -33,7 +32,8 @@ inline std::size_t count_t_vertices(const visdb::BakeMesh& m, double eps = 1e-9)
     std::vector<std::uint32_t> by_x;
     for (std::uint32_t i = 0; i < m.positions.size(); ++i)
         if (on_boundary[i]) by_x.push_back(i);
-    std::sort(by_x.begin(), by_x.end(), [&](auto a, auto b) { return m.positions[a].x < m.positions[b].x; });
+    std::sort(by_x.begin(), by_x.end(),
+              [&](auto a, auto b) { return m.positions[a].x < m.positions[b].x; });
     std::size_t found = 0;
     for (const auto& [ia, ib] : boundary) {
         const glm::dvec3 a = m.positions[ia], b = m.positions[ib];
@@ -45,7 +45,9 @@ inline std::size_t count_t_vertices(const visdb::BakeMesh& m, double eps = 1e-9)
         for (; it != by_x.end() && m.positions[*it].x <= hi; ++it) {
             const glm::dvec3 p = m.positions[*it];
             const double s = glm::dot(p - a, d) / len2;
-            if (s < 0 || s > 1 || s * s * len2 <= eps * eps || (1 - s) * (1 - s) * len2 <= eps * eps) continue;
+            if (s < 0 || s > 1 || s * s * len2 <= eps * eps ||
+                (1 - s) * (1 - s) * len2 <= eps * eps)
+                continue;
             if (glm::length(a + s * d - p) < eps) ++found;
         }
     }
@@ -55,7 +57,8 @@ inline std::size_t count_t_vertices(const visdb::BakeMesh& m, double eps = 1e-9)
 /// Area of triangle `t` of `m`, m².
 inline double triangle_area(const visdb::BakeMesh& m, std::size_t t) {
     const auto& tri = m.triangles[t];
-    return 0.5 * glm::length(glm::cross(m.positions[tri.y] - m.positions[tri.x], m.positions[tri.z] - m.positions[tri.x]));
+    return 0.5 * glm::length(glm::cross(m.positions[tri.y] - m.positions[tri.x],
+                                        m.positions[tri.z] - m.positions[tri.x]));
 }
 
 }  // namespace abrad::testing

@@ -2,9 +2,8 @@
 // Hand-built test surfaces shared by the radiosity tests.
 
 #include <cstdint>
-#include <string>
-
 #include <glm/vec3.hpp>
+#include <string>
 
 #include "abrad/visdb/model.h"
 
@@ -12,7 +11,7 @@ namespace abrad::testing {
 
 // A quad surface [x0,x1]×[y0,y1] at height z split into n×n cells, facing up or down.
 inline visdb::Surface grid(const std::string& name, std::uint32_t material, double x0, double x1,
-                    double y0, double y1, double z, int n, bool up) {
+                           double y0, double y1, double z, int n, bool up) {
     visdb::Surface s;
     s.name = name;
     s.material = material;
@@ -35,13 +34,14 @@ inline visdb::Surface grid(const std::string& name, std::uint32_t material, doub
 }
 
 // A parallelogram o + s·u + t·v (s, t in [0, 1]) of n×n cells, front = u × v.
-inline visdb::Surface quad_grid(const std::string& name, std::uint32_t material, glm::dvec3 o, glm::dvec3 u,
-                         glm::dvec3 v, int n) {
+inline visdb::Surface quad_grid(const std::string& name, std::uint32_t material, glm::dvec3 o,
+                                glm::dvec3 u, glm::dvec3 v, int n) {
     visdb::Surface s;
     s.name = name;
     s.material = material;
     for (int j = 0; j <= n; ++j)
-        for (int i = 0; i <= n; ++i) s.mesh.positions.push_back(o + u * (double(i) / n) + v * (double(j) / n));
+        for (int i = 0; i <= n; ++i)
+            s.mesh.positions.push_back(o + u * (double(i) / n) + v * (double(j) / n));
     auto id = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
     for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {

@@ -21,10 +21,11 @@ using Outcome = ::abrad::testing::Result;
 Outcome abrad(const std::string& args) { return ::abrad::testing::run_abrad(args); }
 
 class BenchCli : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
-        m_dir = fs::temp_directory_path() / ("abrad_bench_cli_" + std::to_string(getpid()) + "_" +
-                                             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        m_dir = fs::temp_directory_path() /
+                ("abrad_bench_cli_" + std::to_string(getpid()) + "_" +
+                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
         fs::remove_all(m_dir);
         fs::create_directories(m_dir);
     }
@@ -37,12 +38,14 @@ protected:
 
 TEST_F(BenchCli, GenerateWritesAFloorThatBakes) {
     const std::string db = path("floor.visdb");
-    const Outcome g = abrad("generate --db " + db + " --rooms 2 1 --cell 1 --furniture 1 --lights 2");
+    const Outcome g =
+        abrad("generate --db " + db + " --rooms 2 1 --cell 1 --furniture 1 --lights 2");
     ASSERT_EQ(g.status, 0) << g.output;
     const Outcome info = abrad("info --db " + db);
     ASSERT_EQ(info.status, 0) << info.output;
     // Two rooms, two 0.6 m panels each: 8 light triangles, 1.44 m², 144 W at 100 W/m²
-    EXPECT_NE(info.output.find("lights: 8 triangles, 1.44 m2, 144 W"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find("lights: 8 triangles, 1.44 m2, 144 W"), std::string::npos)
+        << info.output;
     const Outcome b = abrad("bake --db " + db + " --dm off --bounces 0 --reach 6");
     ASSERT_EQ(b.status, 0) << b.output;
     EXPECT_NE(b.output.find("8 light triangles"), std::string::npos) << b.output;
@@ -64,7 +67,8 @@ TEST_F(BenchCli, BadInputExitsTwo) {
 
 TEST_F(BenchCli, QuickBenchWritesCsvSummaryAndPlots) {
     const std::string out = path("bench");
-    const Outcome r = abrad("bench --out " + out + " --quick --no-room --sizes 600 --light-counts 1,2 --lights-at 600 "
+    const Outcome r = abrad("bench --out " + out +
+                            " --quick --no-room --sizes 600 --light-counts 1,2 --lights-at 600 "
                             "--dm off --bounces 0 --subdivisions 1");
     ASSERT_EQ(r.status, 0) << r.output;
     std::ifstream csv(out + "/scaling.csv");

@@ -2,18 +2,18 @@
 // form-factor error against the closed form, the Pareto front, a tiny end-to-end run that
 // writes the CSV and the summary, and the floors' geometry (areas, normals, light count).
 
+#include "abrad/tools/bench.h"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <glm/geometric.hpp>
 #include <sstream>
 #include <string>
 
-#include <glm/geometric.hpp>
-
-#include "abrad/tools/bench.h"
 #include "abrad/tools/floor_gen.h"
 
 namespace abrad::tools {
@@ -46,7 +46,8 @@ TEST(Bench, ParetoFrontKeepsOnlyUndominatedRuns) {
 
 TEST(Bench, SettingsGridCoversTheIssuesGrid) {
     const auto full = settings_grid(false, 0);
-    EXPECT_EQ(full.size(), (4u + 9u) * 4u * 2u);  // hemicubes × (DM off + 3 light models) × shadings
+    EXPECT_EQ(full.size(),
+              (4u + 9u) * 4u * 2u);  // hemicubes × (DM off + 3 light models) × shadings
     EXPECT_EQ(settings_grid(true, 0).size(), 3u * 2u * 2u);
 }
 
@@ -83,8 +84,8 @@ TEST(Bench, QuickRunWritesCsvAndSummaryWithRealValues) {
     // Exact shading with DM beats patch shading without it on the same hemicube
     auto find = [&](bool dm, radiosity::Shading s) {
         for (const BenchRun& r : runs)
-            if (r.kind == "grid" && r.options.dm == dm && r.options.shading == s && r.options.resolution == 50 &&
-                r.options.method == Visibility::ABuffer)
+            if (r.kind == "grid" && r.options.dm == dm && r.options.shading == s &&
+                r.options.resolution == 50 && r.options.method == Visibility::ABuffer)
                 return r.field_error;
         return -1.0;
     };
@@ -151,8 +152,9 @@ TEST(FloorGen, DoorsOpenInnerWallsOnly) {
     for (const visdb::Surface& surface : s.surfaces)
         if (surface.name == "thresholds")
             for (const auto& t : surface.mesh.triangles)
-                thresholds += 0.5 * glm::length(glm::cross(surface.mesh.positions[t.y] - surface.mesh.positions[t.x],
-                                                           surface.mesh.positions[t.z] - surface.mesh.positions[t.x]));
+                thresholds += 0.5 * glm::length(glm::cross(
+                                        surface.mesh.positions[t.y] - surface.mesh.positions[t.x],
+                                        surface.mesh.positions[t.z] - surface.mesh.positions[t.x]));
     EXPECT_NEAR(thresholds, 0.9 * 0.1, 1e-12);  // one door (0.9 m) through one inner wall (0.1 m)
     EXPECT_THROW(validate(FloorOptions{.rooms_x = 0}), std::invalid_argument);
     EXPECT_THROW(validate(FloorOptions{.cell = 0.0}), std::invalid_argument);

@@ -2,11 +2,10 @@
 // left as they were on bad input or a killed bake, and the exported PLY against a closed form.
 
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <array>
 #include <chrono>
@@ -14,17 +13,16 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <glm/common.hpp>
 #include <map>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <glm/common.hpp>
-
+#include "../radiosity/mesh_checks.h"
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/visdb/store.h"
-#include "../radiosity/mesh_checks.h"
 #include "run_abrad.h"
 
 namespace fs = std::filesystem;
@@ -42,7 +40,7 @@ std::string bytes(const fs::path& p) {
 }
 
 class Cli : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
         m_dir = fs::temp_directory_path() /
                 ("abrad_cli_" + std::to_string(getpid()) + "_" +
@@ -58,11 +56,14 @@ protected:
         std::ofstream(path(name)) << text;
         return path(name).string();
     }
-    std::string sample(const std::string& rel) const { return std::string(ABRAD_SAMPLES) + "/" + rel; }
+    std::string sample(const std::string& rel) const {
+        return std::string(ABRAD_SAMPLES) + "/" + rel;
+    }
     // A database holding the paper's occluder room and one bake.
     std::string baked_db() const {
         const std::string db = path("room.visdb").string();
-        EXPECT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db).status, 0);
+        EXPECT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db).status,
+                  0);
         EXPECT_EQ(run("bake --bounces 0 --db " + db + " --name first").status, 0);
         return db;
     }
@@ -111,10 +112,11 @@ TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
 TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
     const std::string db = baked_db();
     const std::string before = bytes(db);
-    for (const std::string opts : {"--resolution 51", "--subpixels 5", "--bounces -2", "--bounces many", "--converge 0", "--element-size 0", "--overrelax 2", "--method nope",
-                                   "--shading nope", "--unknown-option 1", "--dm maybe", "--lights sun",
-                                   "--dm-angle 30", "--refine-rounds -1", "--refine-tolerance 0",
-                                   "--refine-min-edge -2"}) {
+    for (const std::string opts :
+         {"--resolution 51", "--subpixels 5", "--bounces -2", "--bounces many", "--converge 0",
+          "--element-size 0", "--overrelax 2", "--method nope", "--shading nope",
+          "--unknown-option 1", "--dm maybe", "--lights sun", "--dm-angle 30", "--refine-rounds -1",
+          "--refine-tolerance 0", "--refine-min-edge -2"}) {
         const Result r = run("bake --db " + db + " " + opts);
         EXPECT_EQ(r.status, 2) << opts << "\n" << r.output;
         EXPECT_NE(r.output.find("abrad"), std::string::npos);
@@ -138,8 +140,10 @@ TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
 // bakes only or the new bake complete.
 TEST_F(Cli, KilledBakeLeavesDatabaseReadableAndUnchanged) {
     const std::string db = baked_db();
-    const std::size_t first_vertices = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadWrite)
-                                           .load_bake("first").mesh.positions.size();
+    const std::size_t first_vertices =
+        abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadWrite)
+            .load_bake("first")
+            .mesh.positions.size();
     int killed_before_commit = 0;
     for (int delay_ms : {20, 80, 200, 400}) {
         const pid_t pid = fork();
@@ -177,7 +181,8 @@ TEST_F(Cli, KilledBakeLeavesDatabaseReadableAndUnchanged) {
 // Import, bake, export through the command line; the exported PLY's header is the contract and
 // an unoccluded floor vertex carries the closed-form irradiance of the 1×1 m light.
 TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
-    const Result r = run("run --bounces 0 " + sample("paper_simple/paper_occluder.obj") + " --out " + m_dir.string());
+    const Result r = run("run --bounces 0 " + sample("paper_simple/paper_occluder.obj") +
+                         " --out " + m_dir.string());
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string ply = bytes(path("paper_occluder.ply"));
     const std::string header_end = "end_header\n";
@@ -188,18 +193,32 @@ TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
     std::vector<std::string> lines;
     for (std::string l; std::getline(hs, l);)
         if (l.rfind("comment", 0) != 0) lines.push_back(l);
-    auto store = abrad::visdb::Store::open(path("paper_occluder.visdb").string(), abrad::visdb::OpenMode::ReadWrite);
+    auto store = abrad::visdb::Store::open(path("paper_occluder.visdb").string(),
+                                           abrad::visdb::OpenMode::ReadWrite);
     const auto bake = store.load_bake();
     const std::vector<std::string> expected = {
-        "ply", "format binary_little_endian 1.0",
+        "ply",
+        "format binary_little_endian 1.0",
         "element vertex " + std::to_string(bake.mesh.positions.size()),
-        "property double x", "property double y", "property double z",
-        "property float nx", "property float ny", "property float nz",
-        "property uchar red", "property uchar green", "property uchar blue",
-        "property float irradiance_r", "property float irradiance_g", "property float irradiance_b",
-        "property float radiosity_r", "property float radiosity_g", "property float radiosity_b",
+        "property double x",
+        "property double y",
+        "property double z",
+        "property float nx",
+        "property float ny",
+        "property float nz",
+        "property uchar red",
+        "property uchar green",
+        "property uchar blue",
+        "property float irradiance_r",
+        "property float irradiance_g",
+        "property float irradiance_b",
+        "property float radiosity_r",
+        "property float radiosity_g",
+        "property float radiosity_b",
         "element face " + std::to_string(bake.mesh.triangles.size()),
-        "property list uchar int vertex_indices", "property int surface", "end_header"};
+        "property list uchar int vertex_indices",
+        "property int surface",
+        "end_header"};
     EXPECT_EQ(lines, expected);
 
     // Binary vertex records: 3 doubles, 3 floats, 3 bytes, 6 floats
@@ -213,7 +232,8 @@ TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
         std::memcpy(p, base + v * stride, 24);
         std::memcpy(n, base + v * stride + 24, 12);
         std::memcpy(h, base + v * stride + 39, 12);
-        if (std::abs(p[0] - 1.5) < 1e-9 && std::abs(p[1] - 1.5) < 1e-9 && p[2] == 0.0 && n[2] > 0.5f) {
+        if (std::abs(p[0] - 1.5) < 1e-9 && std::abs(p[1] - 1.5) < 1e-9 && p[2] == 0.0 &&
+            n[2] > 0.5f) {
             // Light [-0.5, 0.5]² at 2.9 m, E = 100 W/m²; the occluder does not hide it from here
             const double e = 100.0 * abrad::radiosity::ff_parallel_rectangle_corner(2.0, 2.0, 2.9) -
                              100.0 * abrad::radiosity::ff_parallel_rectangle_corner(1.0, 2.0, 2.9) -
@@ -259,7 +279,8 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     EXPECT_EQ(run("field-error --db " + db + " --bake nope").status, 2);
     EXPECT_EQ(run("field-error --db " + db + " --subdivisions 0").status, 2);
     const std::string empty = path("empty.visdb").string();
-    ASSERT_EQ(run("import " + sample("paper_simple/paper_simple.obj") + " --db " + empty).status, 0);
+    ASSERT_EQ(run("import " + sample("paper_simple/paper_simple.obj") + " --db " + empty).status,
+              0);
     const Result none = run("field-error --db " + empty);
     EXPECT_EQ(none.status, 2);
     EXPECT_NE(none.output.find("no bake"), std::string::npos);
@@ -269,9 +290,11 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
 // furniture standing on the floor): the discontinuity mesh has no T-vertices and every
 // surface keeps its area.
 TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
-    const Result r = run("run --bounces 0 " + sample("furnished_room/furnished_room.obj") + " --out " + m_dir.string());
+    const Result r = run("run --bounces 0 " + sample("furnished_room/furnished_room.obj") +
+                         " --out " + m_dir.string());
     ASSERT_EQ(r.status, 0) << r.output;
-    auto store = abrad::visdb::Store::open(path("furnished_room.visdb").string(), abrad::visdb::OpenMode::ReadWrite);
+    auto store = abrad::visdb::Store::open(path("furnished_room.visdb").string(),
+                                           abrad::visdb::OpenMode::ReadWrite);
     const abrad::visdb::Scene scene = store.load_scene();
     const auto bake = store.load_bake();
     std::vector<double> area(scene.surfaces.size(), 0.0), expected(scene.surfaces.size(), 0.0);
@@ -290,7 +313,10 @@ TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
     EXPECT_EQ(abrad::testing::count_t_vertices(bake.mesh), 0u);
     EXPECT_GT(bake.mesh.triangles.size(), input_triangles);
     // The model as drawn has them: the floor's vertices along the walls' feet
-    ASSERT_EQ(run("bake --bounces 0 --db " + path("furnished_room.visdb").string() + " --name plain --dm off").status, 0);
+    ASSERT_EQ(run("bake --bounces 0 --db " + path("furnished_room.visdb").string() +
+                  " --name plain --dm off")
+                  .status,
+              0);
     EXPECT_GT(abrad::testing::count_t_vertices(store.load_bake("plain").mesh), 0u);
 }
 
@@ -298,14 +324,18 @@ TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
     const std::string db = baked_db();
     const Result info = run("info --db " + db);
     ASSERT_EQ(info.status, 0) << info.output;
-    for (const char* needle : {"schema 2", "paper_occluder.obj", "triangles 3213", "lights: 2 triangles",
-                               "bakes (1)", "first", "method=abuffer", "resolution=50", "seconds_total="})
+    for (const char* needle :
+         {"schema 2", "paper_occluder.obj", "triangles 3213", "lights: 2 triangles", "bakes (1)",
+          "first", "method=abuffer", "resolution=50", "seconds_total="})
         EXPECT_NE(info.output.find(needle), std::string::npos) << needle << "\n" << info.output;
     // ASCII export and binary export carry the same numbers of elements
-    ASSERT_EQ(run("export --db " + db + " --format ply --ascii --output " + path("a.ply").string()).status, 0);
+    ASSERT_EQ(run("export --db " + db + " --format ply --ascii --output " + path("a.ply").string())
+                  .status,
+              0);
     const std::string ascii = bytes(path("a.ply"));
     EXPECT_NE(ascii.find("format ascii 1.0"), std::string::npos);
-    const Result bad = run("export --db " + db + " --format ply --bake nope --output " + path("b.ply").string());
+    const Result bad =
+        run("export --db " + db + " --format ply --bake nope --output " + path("b.ply").string());
     EXPECT_EQ(bad.status, 2) << bad.output;
     EXPECT_NE(bad.output.find("nope"), std::string::npos);
     EXPECT_FALSE(fs::exists(path("b.ply")));
@@ -315,8 +345,8 @@ TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
 // Probe points against closed forms: the 1×1 m light at 2.9 m with E = 100 W/m².
 TEST_F(Cli, ProbeWritesExactIrradianceAtPoints) {
     const std::string db = baked_db();
-    const std::string csv = write("points.csv",
-                                  "x,y,z,nx,ny,nz\n1.5,1.5,0,0,0,1\n\n0, 0, 1.5, 0, 0, 2\r\n");
+    const std::string csv =
+        write("points.csv", "x,y,z,nx,ny,nz\n1.5,1.5,0,0,0,1\n\n0, 0, 1.5, 0, 0, 2\r\n");
     const std::string cmd = std::string(ABRAD_EXE) + " probe --db " + db + " --points " + csv;
     FILE* pipe = popen(cmd.c_str(), "r");
     ASSERT_NE(pipe, nullptr);
@@ -338,8 +368,9 @@ TEST_F(Cli, ProbeWritesExactIrradianceAtPoints) {
         return std::stod(f);
     };
     using abrad::radiosity::ff_parallel_rectangle_corner;
-    const double corner = 100.0 * (ff_parallel_rectangle_corner(2, 2, 2.9) - ff_parallel_rectangle_corner(1, 2, 2.9) -
-                                   ff_parallel_rectangle_corner(2, 1, 2.9) + ff_parallel_rectangle_corner(1, 1, 2.9));
+    const double corner =
+        100.0 * (ff_parallel_rectangle_corner(2, 2, 2.9) - ff_parallel_rectangle_corner(1, 2, 2.9) -
+                 ff_parallel_rectangle_corner(2, 1, 2.9) + ff_parallel_rectangle_corner(1, 1, 2.9));
     const double centre = 100.0 * 4 * ff_parallel_rectangle_corner(0.5, 0.5, 1.4);
     for (int k : {6, 7, 8}) {
         EXPECT_NEAR(field(a, k), corner, 1e-7 * corner);
@@ -348,16 +379,19 @@ TEST_F(Cli, ProbeWritesExactIrradianceAtPoints) {
     EXPECT_NEAR(field(b, 5), 1.0, 1e-12);  // the normal is written normalised
 
     // Bad input: a malformed line, a zero normal, no points, a missing file
-    const Result bad = run("probe --db " + db + " --points " + write("bad.csv", "1,2,3,0,0,1\n1,2,x,0,0,1\n"));
+    const Result bad =
+        run("probe --db " + db + " --points " + write("bad.csv", "1,2,3,0,0,1\n1,2,x,0,0,1\n"));
     EXPECT_EQ(bad.status, 2);
     EXPECT_NE(bad.output.find("bad.csv:2:"), std::string::npos) << bad.output;
-    const Result first = run("probe --db " + db + " --points " + write("first.csv", "1,2,x,0,0,1\n1,2,3,0,0,1\n"));
+    const Result first =
+        run("probe --db " + db + " --points " + write("first.csv", "1,2,x,0,0,1\n1,2,3,0,0,1\n"));
     EXPECT_EQ(first.status, 2);
     EXPECT_NE(first.output.find("first.csv:1:"), std::string::npos) << first.output;
     const Result zero = run("probe --db " + db + " --points " + write("zero.csv", "1,2,3,0,0,0\n"));
     EXPECT_EQ(zero.status, 2);
     EXPECT_NE(zero.output.find("zero.csv:1: normal is zero"), std::string::npos) << zero.output;
-    EXPECT_EQ(run("probe --db " + db + " --points " + write("none.csv", "x,y,z,nx,ny,nz\n")).status, 2);
+    EXPECT_EQ(run("probe --db " + db + " --points " + write("none.csv", "x,y,z,nx,ny,nz\n")).status,
+              2);
     EXPECT_EQ(run("probe --db " + db + " --points " + path("missing.csv").string()).status, 2);
 }
 
@@ -395,8 +429,10 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     }
 
     // Without meshing the meshes are the same: positions to 1e-8 m, irradiance to 1e-5
-    const abrad::visdb::Bake o = abrad::visdb::Store::open(at_origin, abrad::visdb::OpenMode::ReadOnly).load_bake("off");
-    const abrad::visdb::Bake s = abrad::visdb::Store::open(at_survey, abrad::visdb::OpenMode::ReadOnly).load_bake("off");
+    const abrad::visdb::Bake o =
+        abrad::visdb::Store::open(at_origin, abrad::visdb::OpenMode::ReadOnly).load_bake("off");
+    const abrad::visdb::Bake s =
+        abrad::visdb::Store::open(at_survey, abrad::visdb::OpenMode::ReadOnly).load_bake("off");
     ASSERT_EQ(o.mesh.positions.size(), s.mesh.positions.size());
     double worst_position = 0.0, worst_irradiance = 0.0;
     for (std::size_t v = 0; v < o.mesh.positions.size(); ++v) {
@@ -404,7 +440,8 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
         worst_position = std::max({worst_position, std::abs(d.x), std::abs(d.y), std::abs(d.z)});
         const glm::vec3 a = o.mesh.irradiance[v], b = s.mesh.irradiance[v];
         for (int k = 0; k < 3; ++k)
-            worst_irradiance = std::max(worst_irradiance, double(std::abs(a[k] - b[k])) / (std::abs(a[k]) + 1e-3));
+            worst_irradiance =
+                std::max(worst_irradiance, double(std::abs(a[k] - b[k])) / (std::abs(a[k]) + 1e-3));
     }
     EXPECT_LT(worst_position, 1e-8);
     EXPECT_LT(worst_irradiance, 1e-5);
@@ -420,7 +457,8 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     EXPECT_NEAR(e_s, e_o, 0.1 * e_o);
     const double t_o = std::stod(kv_o["triangles"]), t_s = std::stod(kv_s["triangles"]);
     EXPECT_NEAR(t_s, t_o, 0.02 * t_o);
-    const abrad::visdb::Bake dm = abrad::visdb::Store::open(at_survey, abrad::visdb::OpenMode::ReadOnly).load_bake("dm");
+    const abrad::visdb::Bake dm =
+        abrad::visdb::Store::open(at_survey, abrad::visdb::OpenMode::ReadOnly).load_bake("dm");
     EXPECT_GT(dm.mesh.positions.front().x, 2.4e6);  // stored at survey coordinates
     const abrad::visdb::Bake dm_o =
         abrad::visdb::Store::open(at_origin, abrad::visdb::OpenMode::ReadOnly).load_bake("dm");
@@ -444,13 +482,16 @@ TEST_F(Cli, EverySharedDataFileImportsOrIsRefusedByName) {
     for (const auto& entry : fs::recursive_directory_iterator(data)) {
         if (!entry.is_regular_file()) continue;
         std::string ext = entry.path().extension().string();
-        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        std::transform(ext.begin(), ext.end(), ext.begin(),
+                       [](unsigned char c) { return char(std::tolower(c)); });
         if (ext == ".mtl" || ext == ".txt" || ext == ".md" || ext == ".bin" || ext == ".png" ||
             ext == ".jpg" || entry.path().filename().string().rfind("LICENSE", 0) == 0)
             continue;
         const std::string file = entry.path().string();
         SCOPED_TRACE(file);
-        const std::string db = path(entry.path().stem().string() + std::to_string(imported + refused) + ".visdb").string();
+        const std::string db =
+            path(entry.path().stem().string() + std::to_string(imported + refused) + ".visdb")
+                .string();
         const Result r = run("import " + file + " --db " + db);
         if (r.status == 2) {
             ++refused;
@@ -486,7 +527,8 @@ glm::dvec3 probe_point(const std::string& db, const std::string& points_file) {
     std::istringstream in(r.output);
     std::string line, last;
     while (std::getline(in, line))
-        if (!line.empty() && (std::isdigit(static_cast<unsigned char>(line[0])) || line[0] == '-')) last = line;
+        if (!line.empty() && (std::isdigit(static_cast<unsigned char>(line[0])) || line[0] == '-'))
+            last = line;
     std::vector<double> v;
     std::istringstream fields(last);
     for (std::string f; std::getline(fields, f, ',');) v.push_back(std::stod(f));
@@ -502,17 +544,21 @@ glm::dvec3 probe_point(const std::string& db, const std::string& points_file) {
 // what the closed form says its two panels give.
 TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
     const std::string db = path("haus.visdb").string();
-    const Result imported = run("import " + std::string(ABRAD_SHARED_DATA) + "/ifc/AC14-FZK-Haus.ifc --db " + db +
-                                " --scene " + sample("fzk_haus/scene.toml"));
+    const Result imported =
+        run("import " + std::string(ABRAD_SHARED_DATA) + "/ifc/AC14-FZK-Haus.ifc --db " + db +
+            " --scene " + sample("fzk_haus/scene.toml"));
     ASSERT_EQ(imported.status, 0) << imported.output;
     EXPECT_NE(imported.output.find("emitters added: 6"), std::string::npos) << imported.output;
-    EXPECT_NE(imported.output.find("coplanar overlapping triangle pairs (z-fighting): "), std::string::npos);
-    const Result baked = run("bake --bounces 0 --db " + db + " --name patch --dm off --shading patch");
+    EXPECT_NE(imported.output.find("coplanar overlapping triangle pairs (z-fighting): "),
+              std::string::npos);
+    const Result baked =
+        run("bake --bounces 0 --db " + db + " --name patch --dm off --shading patch");
     ASSERT_EQ(baked.status, 0) << baked.output;
     EXPECT_NE(baked.output.find(" lux"), std::string::npos) << baked.output;
     EXPECT_NE(baked.output.find(" lm (mean over RGB)"), std::string::npos) << baked.output;
 
-    const abrad::visdb::Store store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
+    const abrad::visdb::Store store =
+        abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
     const abrad::visdb::Scene scene = store.load_scene();
     EXPECT_EQ(scene.emittance_unit, "lm/m2");
     ASSERT_EQ(scene.grids.size(), 1u);
@@ -542,7 +588,8 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
     const Result fc = run("render --db " + db + " --false-colour --width 80 --height 60 --output " +
                           path("lux.png").string());
     ASSERT_EQ(fc.status, 0) << fc.output;
-    EXPECT_NE(fc.output.find(" lux, camera '" + scene.cameras[0].name + "'"), std::string::npos) << fc.output;
+    EXPECT_NE(fc.output.find(" lux, camera '" + scene.cameras[0].name + "'"), std::string::npos)
+        << fc.output;
     EXPECT_TRUE(fs::exists(path("lux.png")));
 }
 
@@ -551,12 +598,14 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
 // the bake runs with discontinuity meshing.
 TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
     const std::string db = path("plan.visdb").string();
-    const Result imported = run("import " + std::string(ABRAD_SHARED_DATA) + "/dxf/3dface.dxf --db " + db +
-                                " --scene " + sample("dxf_plan/scene.toml"));
+    const Result imported =
+        run("import " + std::string(ABRAD_SHARED_DATA) + "/dxf/3dface.dxf --db " + db +
+            " --scene " + sample("dxf_plan/scene.toml"));
     ASSERT_EQ(imported.status, 0) << imported.output;
     const Result baked = run("bake --bounces 0 --db " + db + " --name dm");
     ASSERT_EQ(baked.status, 0) << baked.output;
-    const abrad::visdb::Store store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
+    const abrad::visdb::Store store =
+        abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
     const abrad::visdb::Scene scene = store.load_scene();
     // The outline is 4.156 × 3.614 m once millimetres are metres, flat at z = 0
     glm::dvec3 lo(1e300), hi(-1e300);
@@ -584,10 +633,12 @@ TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
 // The Cornell box sample end to end (Y up): the light lands 1.98 m up facing down, 1 cm under
 // the ceiling (no z-fighting), and a point 0.68 m under its centre gets Ke times the closed form.
 TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
-    const Result r = run("run --bounces 0 " + sample("cornell_box/CornellBox-Original.obj") + " --up y --out " +
-                         path("cornell").string());
+    const Result r = run("run --bounces 0 " + sample("cornell_box/CornellBox-Original.obj") +
+                         " --up y --out " + path("cornell").string());
     ASSERT_EQ(r.status, 0) << r.output;
-    EXPECT_NE(r.output.find("coplanar overlapping triangle pairs (z-fighting): 0"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("coplanar overlapping triangle pairs (z-fighting): 0"),
+              std::string::npos)
+        << r.output;
     EXPECT_TRUE(fs::exists(path("cornell") / "CornellBox-Original.ply"));
     EXPECT_TRUE(fs::exists(path("cornell") / "CornellBox-Original.png"));
     const std::string db = (path("cornell") / "CornellBox-Original.visdb").string();
@@ -603,8 +654,9 @@ TEST_F(Cli, CornellBoxSampleRunsEndToEnd) {
 // adds gathered indirect light on top of the exact direct light of a direct-only bake, and the
 // grid's CSV holds the probe's values.
 TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
-    const std::string scene = write("grid.toml", "[[grid]]\nname = \"work plane\"\nmin = [-0.8, -0.8]\n"
-                                                 "max = [0.8, 0.8]\nheight = 1.3\nspacing = 0.4\n");
+    const std::string scene = write("grid.toml",
+                                    "[[grid]]\nname = \"work plane\"\nmin = [-0.8, -0.8]\n"
+                                    "max = [0.8, 0.8]\nheight = 1.3\nspacing = 0.4\n");
     const Result r = run("run --bounces converge " + sample("cornell_box/CornellBox-Original.obj") +
                          " --up y --scene " + scene + " --out " + path("ir").string());
     ASSERT_EQ(r.status, 0) << r.output;
@@ -612,8 +664,9 @@ TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
     const std::size_t at = r.output.find("grid 'work plane': 4 x 4 points");
     ASSERT_NE(at, std::string::npos) << r.output;
     double avg = 0, lo = 0, hi = 0, u0 = 0;
-    ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("E_avg", at), "E_avg %lf, E_min %lf, E_max %lf W/m2, U0 %lf",
-                          &avg, &lo, &hi, &u0), 4)
+    ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("E_avg", at),
+                          "E_avg %lf, E_min %lf, E_max %lf W/m2, U0 %lf", &avg, &lo, &hi, &u0),
+              4)
         << r.output.substr(at, 200);
 
     // The CSV: 16 points, whose mean, min and max are the table's
@@ -624,8 +677,10 @@ TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
     std::vector<std::array<double, 7>> rows;
     while (std::getline(csv, line)) {
         std::array<double, 7> v{};
-        ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3], &v[4],
-                              &v[5], &v[6]), 7) << line;
+        ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2],
+                              &v[3], &v[4], &v[5], &v[6]),
+                  7)
+            << line;
         rows.push_back(v);
     }
     ASSERT_EQ(rows.size(), 16u);
@@ -660,8 +715,8 @@ TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
         std::istringstream in(p.output);
         while (std::getline(in, line)) {
             double v[9];
-            if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3], &v[4],
-                            &v[5], &v[6], &v[7], &v[8]) == 9)
+            if (std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1],
+                            &v[2], &v[3], &v[4], &v[5], &v[6], &v[7], &v[8]) == 9)
                 out.emplace_back(v[6], v[7], v[8]);
         }
         return out;
@@ -680,14 +735,16 @@ TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
 TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
     const std::string db = baked_db();
     const fs::path pov = path("baked.pov"), ref = path("reference.pov"), glb = path("bake.glb");
-    Result r = run("export --db " + db + " --format pov --output " + pov.string() + " --width 160 --height 120");
+    Result r = run("export --db " + db + " --format pov --output " + pov.string() +
+                   " --width 160 --height 120");
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("camera 'default'"), std::string::npos) << r.output;
     const std::string pov_text = bytes(pov);
     EXPECT_NE(pov_text.find("mesh2 {"), std::string::npos);
     EXPECT_NE(pov_text.find("texture_list"), std::string::npos);
     EXPECT_EQ(pov_text.find("light_source"), std::string::npos);
-    r = run("export --db " + db + " --format pov-reference --light-samples 16 --output " + ref.string());
+    r = run("export --db " + db + " --format pov-reference --light-samples 16 --output " +
+            ref.string());
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(bytes(ref).find("spotlight"), std::string::npos);
     r = run("export --db " + db + " --format gltf --output " + glb.string());
@@ -699,11 +756,14 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
     const std::string png = path("own.png").string(), dark = path("dark.png").string();
     r = run("render --db " + db + " --output " + png + " --width 160 --height 120");
     ASSERT_EQ(r.status, 0) << r.output;
-    r = run("render --db " + db + " --output " + dark + " --width 160 --height 120 --exposure 0.001");
+    r = run("render --db " + db + " --output " + dark +
+            " --width 160 --height 120 --exposure 0.001");
     ASSERT_EQ(r.status, 0) << r.output;
-    r = run("render --db " + db + " --output " + path("own.exr").string() + " --width 160 --height 120");
+    r = run("render --db " + db + " --output " + path("own.exr").string() +
+            " --width 160 --height 120");
     ASSERT_EQ(r.status, 0) << r.output;
-    r = run("render --db " + db + " --output " + path("fc.png").string() + " --false-colour --width 160 --height 120");
+    r = run("render --db " + db + " --output " + path("fc.png").string() +
+            " --false-colour --width 160 --height 120");
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("false-colour irradiance, 0 .. "), std::string::npos) << r.output;
 
@@ -711,7 +771,8 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
     r = run("compare " + png + " " + png + " --min-psnr 60");
     EXPECT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("rmse: 0\n"), std::string::npos) << r.output;
-    r = run("compare " + png + " " + dark + " --min-psnr 20 --side-by-side " + path("sbs.png").string());
+    r = run("compare " + png + " " + dark + " --min-psnr 20 --side-by-side " +
+            path("sbs.png").string());
     EXPECT_EQ(r.status, 1) << r.output;
     EXPECT_NE(r.output.find("result: fail"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("dB < 20 dB"), std::string::npos) << r.output;
@@ -722,9 +783,12 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
     EXPECT_NE(r.output.find("nope.png"), std::string::npos) << r.output;
     r = run("compare " + png + " " + path("fc.png").string());
     EXPECT_EQ(r.status, 2) << r.output;
-    r = run("export --db " + db + " --format ply --light-samples 4 --output " + path("x.ply").string());
+    r = run("export --db " + db + " --format ply --light-samples 4 --output " +
+            path("x.ply").string());
     EXPECT_EQ(r.status, 2) << r.output;
-    EXPECT_NE(r.output.find("--light-samples applies to --format pov-reference only"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("--light-samples applies to --format pov-reference only"),
+              std::string::npos)
+        << r.output;
     r = run("render --db " + db + " --output " + path("own.bmpx").string());
     EXPECT_EQ(r.status, 2) << r.output;
     EXPECT_NE(r.output.find("own.bmpx: unknown image type '.bmpx'"), std::string::npos) << r.output;
@@ -739,13 +803,18 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
 // default when --camera is not given.
 TEST_F(Cli, SceneFileCamerasByName) {
     const std::string db = path("cams.visdb").string();
-    const std::string scene = write("cams.toml",
-                                    "[[camera]]\nname = \"top\"\nposition = [0.25, 0.5, 2.5]\nlook_at = [0.25, 0.5, 0]\n"
-                                    "up = [0, 1, 0]\nfov = 50\n\n"
-                                    "[[camera]]\nname = \"corner\"\nposition = [-1.5, -1.5, 1.6]\nlook_at = [0, 0, 1]\n");
-    ASSERT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db + " --scene " + scene).status, 0);
+    const std::string scene =
+        write("cams.toml",
+              "[[camera]]\nname = \"top\"\nposition = [0.25, 0.5, 2.5]\nlook_at = [0.25, 0.5, 0]\n"
+              "up = [0, 1, 0]\nfov = 50\n\n"
+              "[[camera]]\nname = \"corner\"\nposition = [-1.5, -1.5, 1.6]\nlook_at = [0, 0, 1]\n");
+    ASSERT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db +
+                  " --scene " + scene)
+                  .status,
+              0);
     ASSERT_EQ(run("bake --db " + db + " --dm off").status, 0);
-    Result r = run("export --db " + db + " --format pov --camera top --output " + path("top.pov").string());
+    Result r = run("export --db " + db + " --format pov --camera top --output " +
+                   path("top.pov").string());
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(bytes(path("top.pov")).find("location <0.25,0.5,2.5>"), std::string::npos);
     EXPECT_NE(bytes(path("top.pov")).find("direction <0,0,-1>"), std::string::npos);
@@ -757,7 +826,10 @@ TEST_F(Cli, SceneFileCamerasByName) {
     r = run("render --db " + db + " --output " + first + " --width 64 --height 48");
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("camera 'top'"), std::string::npos) << r.output;
-    ASSERT_EQ(run("render --db " + db + " --camera corner --output " + corner + " --width 64 --height 48").status, 0);
+    ASSERT_EQ(
+        run("render --db " + db + " --camera corner --output " + corner + " --width 64 --height 48")
+            .status,
+        0);
     EXPECT_EQ(run("compare " + top + " " + first + " --max-error 0").status, 0);
     EXPECT_EQ(run("compare " + top + " " + corner + " --min-psnr 40").status, 1);
 }

@@ -331,8 +331,12 @@ visdb::Scene make_scene() {
                              55.0});
     scene.cameras.push_back(
         {"top", {0.0, 0.0, 100.0}, {0.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, 1.0 / 7.0});
-    scene.grids.push_back({"work plane", {kEast + 0.5, kNorth + 0.5}, {kEast + 2.5, kNorth + 1.0 / 3.0 + 1.0},
-                           0.8, 0.25, {0.0, 0.0, 1.0}});
+    scene.grids.push_back({"work plane",
+                           {kEast + 0.5, kNorth + 0.5},
+                           {kEast + 2.5, kNorth + 1.0 / 3.0 + 1.0},
+                           0.8,
+                           0.25,
+                           {0.0, 0.0, 1.0}});
     return scene;
 }
 

@@ -14,14 +14,13 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <glm/geometric.hpp>
 #include <iomanip>
 #include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
-
-#include <glm/geometric.hpp>
 
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/field_error.h"
@@ -59,15 +58,17 @@ double resident_mb() {
 // (Linux's VmHWM cannot be reset everywhere: clear_refs is not always honoured), and the
 // process peak (VmHWM) is kept as an upper bound.
 class PeakMemory {
-public:
-    PeakMemory() : m_peak(resident_mb()), m_thread([this] {
-        while (!m_stop.load()) {
-            const double r = resident_mb();
-            double p = m_peak.load();
-            while (r > p && !m_peak.compare_exchange_weak(p, r)) {}
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        }
-    }) {}
+  public:
+    PeakMemory()
+        : m_peak(resident_mb()), m_thread([this] {
+              while (!m_stop.load()) {
+                  const double r = resident_mb();
+                  double p = m_peak.load();
+                  while (r > p && !m_peak.compare_exchange_weak(p, r)) {
+                  }
+                  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+              }
+          }) {}
     ~PeakMemory() { stop(); }
     double stop() {
         if (m_thread.joinable()) {
@@ -78,7 +79,7 @@ public:
         return std::max(m_peak.load(), r);
     }
 
-private:
+  private:
     std::atomic<double> m_peak;
     std::atomic<bool> m_stop{false};
     std::thread m_thread;
@@ -131,16 +132,17 @@ const char* kCsvHeader =
 std::string csv_row(const BenchRun& r) {
     const BakeOptions& o = r.options;
     std::ostringstream s;
-    s << '"' << r.scene << "\"," << r.kind << ',' << r.triangles_in << ',' << r.light_triangles << ','
-      << radiosity::to_string(o.method) << ',' << o.resolution << ','
+    s << '"' << r.scene << "\"," << r.kind << ',' << r.triangles_in << ',' << r.light_triangles
+      << ',' << radiosity::to_string(o.method) << ',' << o.resolution << ','
       << (o.method == Visibility::ABuffer ? o.subpixels : 1) << ',' << (o.dm ? "on" : "off") << ','
-      << (o.dm ? radiosity::to_string(o.lights) : std::string("-")) << ',' << radiosity::to_string(o.shading)
-      << ',' << r.triangles_out << ',' << fmt(r.seconds_wall, 6) << ',' << fmt(r.stat("seconds_shoot_cpu"), 6)
-      << ',' << fmt(r.stat("seconds_occlusion_cpu"), 6) << ',' << fmt(r.stat("seconds_shade_cpu"), 6) << ','
-      << fmt(r.stat("seconds_shadow_edges_cpu"), 6) << ',' << fmt(r.stat("seconds_mesh"), 6) << ','
-      << fmt(r.stat("seconds_dm"), 6) << ',' << fmt(r.seconds_store, 6) << ',' << fmt(r.peak_rss_mb, 6) << ','
-      << fmt(r.ff_error, 6) << ',' << fmt(r.field_error, 6) << ',' << fmt(r.stat("mean_form_factor_sum"), 9)
-      << ',' << r.stat("occluders_tested");
+      << (o.dm ? radiosity::to_string(o.lights) : std::string("-")) << ','
+      << radiosity::to_string(o.shading) << ',' << r.triangles_out << ',' << fmt(r.seconds_wall, 6)
+      << ',' << fmt(r.stat("seconds_shoot_cpu"), 6) << ','
+      << fmt(r.stat("seconds_occlusion_cpu"), 6) << ',' << fmt(r.stat("seconds_shade_cpu"), 6)
+      << ',' << fmt(r.stat("seconds_shadow_edges_cpu"), 6) << ',' << fmt(r.stat("seconds_mesh"), 6)
+      << ',' << fmt(r.stat("seconds_dm"), 6) << ',' << fmt(r.seconds_store, 6) << ','
+      << fmt(r.peak_rss_mb, 6) << ',' << fmt(r.ff_error, 6) << ',' << fmt(r.field_error, 6) << ','
+      << fmt(r.stat("mean_form_factor_sum"), 9) << ',' << r.stat("occluders_tested");
     return s.str();
 }
 
@@ -152,8 +154,8 @@ bool same_settings(const BakeOptions& a, const BakeOptions& b) {
 
 // Bakes one scene with one setting, stores it, and measures it.
 BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions& options,
-                 visdb::Store& store, const radiosity::DirectField* field, const BenchOptions& bench,
-                 std::map<std::string, double>& ff_cache) {
+                 visdb::Store& store, const radiosity::DirectField* field,
+                 const BenchOptions& bench, std::map<std::string, double>& ff_cache) {
     BenchRun r;
     r.scene = s.name;
     r.kind = kind;
@@ -175,17 +177,19 @@ BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions
 
     // Form-factor error of the hemicube setting (cached: it does not depend on the scene)
     const int sub = options.method == Visibility::ABuffer ? options.subpixels : 1;
-    const std::string key = radiosity::to_string(options.method) + std::to_string(options.resolution) + "x" +
-                            std::to_string(sub);
+    const std::string key = radiosity::to_string(options.method) +
+                            std::to_string(options.resolution) + "x" + std::to_string(sub);
     auto it = ff_cache.find(key);
     if (it == ff_cache.end())
-        it = ff_cache.emplace(key, hemicube_ff_error(options.method, options.resolution, sub)).first;
+        it =
+            ff_cache.emplace(key, hemicube_ff_error(options.method, options.resolution, sub)).first;
     r.ff_error = it->second;
 
     // The reference is the exact direct irradiance: bakes with interreflection are not measured
     if (field && options.bounces == 0 && r.triangles_out <= bench.field_error_max) {
         const radiosity::FieldError e = radiosity::field_error(
-            s.scene, b.mesh, [&](const glm::dvec3& x, const glm::dvec3& n) { return field->irradiance(x, n); },
+            s.scene, b.mesh,
+            [&](const glm::dvec3& x, const glm::dvec3& n) { return field->irradiance(x, n); },
             {.subdivisions = bench.subdivisions});
         r.field_error = e.relative_l1;
     }
@@ -209,9 +213,9 @@ int family(const BakeOptions& o) {
     return shading * 4 + dm * 2 + method;
 }
 
-const char* kFamilyNames[8] = {"zbuffer, patch",       "abuffer, patch",       "zbuffer, DM, patch",
-                               "abuffer, DM, patch",   "zbuffer, exact",       "abuffer, exact",
-                               "zbuffer, DM, exact",   "abuffer, DM, exact"};
+const char* kFamilyNames[8] = {"zbuffer, patch",     "abuffer, patch",    "zbuffer, DM, patch",
+                               "abuffer, DM, patch", "zbuffer, exact",    "abuffer, exact",
+                               "zbuffer, DM, exact", "abuffer, DM, exact"};
 
 // gnuplot scripts and their data; returns the PNGs made (empty when gnuplot is missing).
 std::vector<std::string> plot(const BenchOptions& bench, const std::vector<BenchRun>& runs,
@@ -224,30 +228,36 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
         gp << "set terminal pngcairo size " << 640 * std::max<std::size_t>(1, scene_names.size())
            << ",520 font 'sans,10'\nset output '" << (out / "speed_error.png").string() << "'\n"
            << "set multiplot layout 1," << std::max<std::size_t>(1, scene_names.size()) << "\n"
-           << "set logscale xy\nset xlabel 'bake wall time (s)'\nset ylabel 'field error (relative L1)'\n"
+           << "set logscale xy\nset xlabel 'bake wall time (s)'\nset ylabel 'field error (relative "
+              "L1)'\n"
            << "set key bottom left font 'sans,8'\nset grid\n";
         for (std::size_t si = 0; si < scene_names.size(); ++si) {
             std::vector<BenchRun> mine;
             for (const BenchRun& r : runs)
-                if (r.kind == "grid" && r.scene == scene_names[si] && r.field_error > 0.0) mine.push_back(r);
+                if (r.kind == "grid" && r.scene == scene_names[si] && r.field_error > 0.0)
+                    mine.push_back(r);
             const fs::path data = out / ("speed_error_" + std::to_string(si) + ".dat");
             std::ofstream d(data);
             for (int fam = 0; fam < 8; ++fam) {
                 d << "# " << kFamilyNames[fam] << "\n";
                 for (const BenchRun& r : mine)
-                    if (family(r.options) == fam) d << r.seconds_wall << " " << r.field_error << "\n";
+                    if (family(r.options) == fam)
+                        d << r.seconds_wall << " " << r.field_error << "\n";
                 d << "\n\n";
             }
             d << "# pareto\n";
             std::vector<std::size_t> front = pareto_front(mine);
-            std::sort(front.begin(), front.end(),
-                      [&](std::size_t a, std::size_t b) { return mine[a].seconds_wall < mine[b].seconds_wall; });
-            for (std::size_t i : front) d << mine[i].seconds_wall << " " << mine[i].field_error << "\n";
+            std::sort(front.begin(), front.end(), [&](std::size_t a, std::size_t b) {
+                return mine[a].seconds_wall < mine[b].seconds_wall;
+            });
+            for (std::size_t i : front)
+                d << mine[i].seconds_wall << " " << mine[i].field_error << "\n";
             gp << "set title '" << scene_names[si] << "' noenhanced\nplot ";
             for (int fam = 0; fam < 8; ++fam)
-                gp << "'" << data.string() << "' index " << fam << " with points pt 7 ps 0.8 title '"
-                   << kFamilyNames[fam] << "', ";
-            gp << "'" << data.string() << "' index 8 with linespoints lw 2 pt 6 ps 1.5 lc 'black' title 'Pareto front'\n";
+                gp << "'" << data.string() << "' index " << fam
+                   << " with points pt 7 ps 0.8 title '" << kFamilyNames[fam] << "', ";
+            gp << "'" << data.string()
+               << "' index 8 with linespoints lw 2 pt 6 ps 1.5 lc 'black' title 'Pareto front'\n";
         }
         gp << "unset multiplot\n";
     }
@@ -258,15 +268,18 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
         d << "# triangles_in seconds_wall peak_rss_mb light_triangles\n";
         for (const BenchRun& r : runs)
             if (r.kind == "scaling") {
-                d << r.triangles_in << " " << r.seconds_wall << " " << r.peak_rss_mb << " " << r.light_triangles << "\n";
+                d << r.triangles_in << " " << r.seconds_wall << " " << r.peak_rss_mb << " "
+                  << r.light_triangles << "\n";
                 scaling = true;
             }
         d << "\n\n";
         for (const BenchRun& r : runs)
             if (r.kind == "lights")
-                d << r.triangles_in << " " << r.seconds_wall << " " << r.peak_rss_mb << " " << r.light_triangles << "\n";
+                d << r.triangles_in << " " << r.seconds_wall << " " << r.peak_rss_mb << " "
+                  << r.light_triangles << "\n";
     }
-    const bool lights = std::any_of(runs.begin(), runs.end(), [](const BenchRun& r) { return r.kind == "lights"; });
+    const bool lights =
+        std::any_of(runs.begin(), runs.end(), [](const BenchRun& r) { return r.kind == "lights"; });
     if (scaling || lights) {
         std::ofstream gp(out / "scaling.gp");
         const std::string data = (out / "scaling.dat").string();
@@ -276,12 +289,14 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
            << "\nset logscale xy\nset grid\nset key top left\n"
            << "set ylabel 'seconds'\nset y2label 'peak memory (MB)'\nset y2tics\nset logscale y2\n";
         if (scaling)
-            gp << "set xlabel 'input triangles'\nset title 'Generated floors: " << label(bench.scaling)
-               << "' noenhanced\nplot '" << data << "' index 0 using 1:2 with linespoints pt 7 title 'bake wall time', '"
-               << data << "' index 0 using 1:3 axes x1y2 with linespoints pt 5 title 'peak memory'\n";
+            gp << "set xlabel 'input triangles'\nset title 'Generated floors: "
+               << label(bench.scaling) << "' noenhanced\nplot '" << data
+               << "' index 0 using 1:2 with linespoints pt 7 title 'bake wall time', '" << data
+               << "' index 0 using 1:3 axes x1y2 with linespoints pt 5 title 'peak memory'\n";
         if (lights)
-            gp << "set xlabel 'light triangles'\nset title 'Light triangles (fixed floor)'\nplot '" << data
-               << "' index 1 using 4:2 with linespoints pt 7 title 'bake wall time', '" << data
+            gp << "set xlabel 'light triangles'\nset title 'Light triangles (fixed floor)'\nplot '"
+               << data << "' index 1 using 4:2 with linespoints pt 7 title 'bake wall time', '"
+               << data
                << "' index 1 using 4:3 axes x1y2 with linespoints pt 5 title 'peak memory'\n";
         gp << "unset multiplot\n";
     }
@@ -293,8 +308,10 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
         if (status == 0 && fs::exists(out / (std::string(name) + ".png"))) {
             made.push_back(std::string(name) + ".png");
         } else {
-            std::fprintf(stderr, "bench: gnuplot %s (status %d): %s.png not made; the script and data are in %s\n",
-                         status < 0 ? "not found" : "failed", status, name, out.string().c_str());
+            std::fprintf(
+                stderr,
+                "bench: gnuplot %s (status %d): %s.png not made; the script and data are in %s\n",
+                status < 0 ? "not found" : "failed", status, name, out.string().c_str());
         }
     }
     return made;
@@ -306,7 +323,8 @@ bool is_default(const BakeOptions& o) {
 }
 
 void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
-                   const std::vector<std::string>& scene_names, const std::vector<std::string>& pngs) {
+                   const std::vector<std::string>& scene_names,
+                   const std::vector<std::string>& pngs) {
     std::ofstream md(bench.out / "summary.md");
     md << "# Benchmark summary\n\n";
     if (!bench.command.empty()) md << "Command: `" << bench.command << "`\n\n";
@@ -314,11 +332,13 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
        << std::thread::hardware_concurrency() << " hardware threads, "
        << first_line_of("/proc/meminfo", "MemTotal") << " memory; threads used: "
        << (bench.threads > 0 ? std::to_string(bench.threads) : std::string("all")) << ".\n\n";
-    md << "Times are wall-clock seconds of the bake call (stage columns in bench.csv are CPU seconds "
+    md << "Times are wall-clock seconds of the bake call (stage columns in bench.csv are CPU "
+          "seconds "
           "summed over threads); field error is the area-weighted relative L1 of the Gouraud-"
           "interpolated irradiance against the exact direct irradiance at "
        << bench.subdivisions * bench.subdivisions
-       << " points per triangle; form-factor error is the hemicube's relative L1 against Lambert's closed "
+       << " points per triangle; form-factor error is the hemicube's relative L1 against Lambert's "
+          "closed "
           "form in an unoccluded 4 x 4 x 3 m box of 0.25 m patches.\n\n";
     for (const std::string& png : pngs) md << "![" << png << "](" << png << ")\n\n";
     for (const std::string& name : scene_names) {
@@ -329,8 +349,9 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
         md << "## " << name << " (" << mine.front().triangles_in << " triangles, "
            << mine.front().light_triangles << " light triangles)\n\n";
         std::vector<std::size_t> front = pareto_front(mine);
-        std::sort(front.begin(), front.end(),
-                  [&](std::size_t a, std::size_t b) { return mine[a].seconds_wall < mine[b].seconds_wall; });
+        std::sort(front.begin(), front.end(), [&](std::size_t a, std::size_t b) {
+            return mine[a].seconds_wall < mine[b].seconds_wall;
+        });
         md << "Pareto-best settings (no other run both faster and more accurate):\n\n"
            << "| settings | wall s | field error | form-factor error | triangles out | peak MB |\n"
            << "|---|---|---|---|---|---|\n";
@@ -338,14 +359,16 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
         for (std::size_t i : front) {
             const BenchRun& r = mine[i];
             default_on_front = default_on_front || is_default(r.options);
-            md << "| " << label(r.options) << (is_default(r.options) ? " **(default)**" : "") << " | "
-               << fmt(r.seconds_wall, 3) << " | " << fmt(r.field_error, 3) << " | " << fmt(r.ff_error, 3)
-               << " | " << r.triangles_out << " | " << fmt(r.peak_rss_mb, 4) << " |\n";
+            md << "| " << label(r.options) << (is_default(r.options) ? " **(default)**" : "")
+               << " | " << fmt(r.seconds_wall, 3) << " | " << fmt(r.field_error, 3) << " | "
+               << fmt(r.ff_error, 3) << " | " << r.triangles_out << " | " << fmt(r.peak_rss_mb, 4)
+               << " |\n";
         }
         for (const BenchRun& r : mine)
             if (is_default(r.options) && !default_on_front)
                 md << "\nThe default (" << label(r.options) << ") took " << fmt(r.seconds_wall, 3)
-                   << " s with field error " << fmt(r.field_error, 3) << ": not on the front for this scene.\n";
+                   << " s with field error " << fmt(r.field_error, 3)
+                   << ": not on the front for this scene.\n";
         md << "\n";
     }
     bool any_scaling = false;
@@ -358,15 +381,18 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
         md << (std::string(kind) == "scaling" ? "## Scaling on generated floors\n\n"
                                               : "## Scaling with light triangles\n\n")
            << "Settings: " << label(rs.front()->options) << ".\n\n"
-           << "| floor | triangles in | light triangles | triangles out | wall s | shoot cpu s | shade cpu s | "
+           << "| floor | triangles in | light triangles | triangles out | wall s | shoot cpu s | "
+              "shade cpu s | "
               "edges cpu s | mesh s | store s | peak MB | field error |\n"
            << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
         for (const BenchRun* r : rs)
-            md << "| " << r->scene << " | " << r->triangles_in << " | " << r->light_triangles << " | "
-               << r->triangles_out << " | " << fmt(r->seconds_wall, 3) << " | " << fmt(r->stat("seconds_shoot_cpu"), 3)
-               << " | " << fmt(r->stat("seconds_shade_cpu"), 3) << " | "
-               << fmt(r->stat("seconds_shadow_edges_cpu"), 3) << " | " << fmt(r->stat("seconds_mesh"), 3) << " | "
-               << fmt(r->seconds_store, 3) << " | " << fmt(r->peak_rss_mb, 4) << " | "
+            md << "| " << r->scene << " | " << r->triangles_in << " | " << r->light_triangles
+               << " | " << r->triangles_out << " | " << fmt(r->seconds_wall, 3) << " | "
+               << fmt(r->stat("seconds_shoot_cpu"), 3) << " | "
+               << fmt(r->stat("seconds_shade_cpu"), 3) << " | "
+               << fmt(r->stat("seconds_shadow_edges_cpu"), 3) << " | "
+               << fmt(r->stat("seconds_mesh"), 3) << " | " << fmt(r->seconds_store, 3) << " | "
+               << fmt(r->peak_rss_mb, 4) << " | "
                << (r->field_error >= 0.0 ? fmt(r->field_error, 3) : std::string("-")) << " |\n";
         md << "\n";
     }
@@ -379,7 +405,8 @@ double BenchRun::stat(const std::string& key) const { return stat_of(statistics,
 
 std::string label(const BakeOptions& o) {
     std::string s = radiosity::to_string(o.method) + " R" + std::to_string(o.resolution);
-    if (o.method == Visibility::ABuffer) s += " " + std::to_string(o.subpixels) + "x" + std::to_string(o.subpixels);
+    if (o.method == Visibility::ABuffer)
+        s += " " + std::to_string(o.subpixels) + "x" + std::to_string(o.subpixels);
     s += o.dm ? ", DM " + radiosity::to_string(o.lights) : std::string(", no DM");
     s += ", " + radiosity::to_string(o.shading);
     return s;
@@ -392,17 +419,21 @@ std::vector<BakeOptions> settings_grid(bool quick, int threads) {
     };
     std::vector<Hc> hemicubes;
     if (quick) {
-        hemicubes = {{Visibility::ZBuffer, 50, 8}, {Visibility::ABuffer, 26, 4}, {Visibility::ABuffer, 50, 8}};
+        hemicubes = {{Visibility::ZBuffer, 50, 8},
+                     {Visibility::ABuffer, 26, 4},
+                     {Visibility::ABuffer, 50, 8}};
     } else {
         for (int r : {50, 100, 200, 400}) hemicubes.push_back({Visibility::ZBuffer, r, 8});
         for (int r : {26, 50, 100})  // R must be even: 26 stands for the issue's 25
             for (int s : {4, 8, 16}) hemicubes.push_back({Visibility::ABuffer, r, s});
     }
-    std::vector<std::pair<bool, radiosity::LightModel>> dms = {{false, radiosity::LightModel::Area}};
+    std::vector<std::pair<bool, radiosity::LightModel>> dms = {
+        {false, radiosity::LightModel::Area}};
     if (quick)
         dms.push_back({true, radiosity::LightModel::Area});
     else
-        for (auto m : {radiosity::LightModel::Centroid, radiosity::LightModel::Vertices, radiosity::LightModel::Area})
+        for (auto m : {radiosity::LightModel::Centroid, radiosity::LightModel::Vertices,
+                       radiosity::LightModel::Area})
             dms.push_back({true, m});
     std::vector<BakeOptions> grid;
     for (const Hc& h : hemicubes)
@@ -433,25 +464,28 @@ double hemicube_ff_error(Visibility method, int resolution, int subpixels) {
         for (int j = 0; j < nv; ++j)
             for (int i = 0; i < nu; ++i) {
                 const glm::dvec3 a = o + u * (double(i) / nu) + v * (double(j) / nv);
-                const glm::dvec3 b = a + u / double(nu), d = a + v / double(nv), c = b + v / double(nv);
+                const glm::dvec3 b = a + u / double(nu), d = a + v / double(nv),
+                                 c = b + v / double(nv);
                 patches.push_back({{a, b, c}, 1.0});
                 patches.push_back({{a, c, d}, 1.0});
             }
     };
-    rect({-2, -2, 3}, {0, 4, 0}, {4, 0, 0});   // ceiling, facing down
-    rect({-2, -2, 0}, {4, 0, 0}, {0, 0, 3});   // wall y = -2, facing +y
-    rect({2, 2, 0}, {-4, 0, 0}, {0, 0, 3});    // wall y = 2
-    rect({2, -2, 0}, {0, 4, 0}, {0, 0, 3});    // wall x = 2
-    rect({-2, 2, 0}, {0, -4, 0}, {0, 0, 3});   // wall x = -2
+    rect({-2, -2, 3}, {0, 4, 0}, {4, 0, 0});  // ceiling, facing down
+    rect({-2, -2, 0}, {4, 0, 0}, {0, 0, 3});  // wall y = -2, facing +y
+    rect({2, 2, 0}, {-4, 0, 0}, {0, 0, 3});   // wall y = 2
+    rect({2, -2, 0}, {0, 4, 0}, {0, 0, 3});   // wall x = 2
+    rect({-2, 2, 0}, {0, -4, 0}, {0, 0, 3});  // wall x = -2
     const radiosity::ShooterFrame frame = radiosity::ShooterFrame::at({0.1, 0.05, 0.0}, {0, 0, 1});
     const radiosity::Hemicube hc(resolution);
     const radiosity::ShootResult shot =
         radiosity::shoot(frame, patches, hc,
-                         {.method = method, .subpixels = method == Visibility::ABuffer ? subpixels : 8,
+                         {.method = method,
+                          .subpixels = method == Visibility::ABuffer ? subpixels : 8,
                           .occlusion = false});
     double err = 0.0, total = 0.0;
     for (std::size_t i = 0; i < patches.size(); ++i) {
-        const double exact = radiosity::point_polygon_form_factor(frame.origin, frame.n, patches[i].p);
+        const double exact =
+            radiosity::point_polygon_form_factor(frame.origin, frame.n, patches[i].p);
         err += std::abs(shot.form_factor[i] - exact);
         total += exact;
     }
@@ -465,8 +499,10 @@ std::vector<std::size_t> pareto_front(const std::vector<BenchRun>& runs) {
         bool dominated = false;
         for (std::size_t j = 0; j < runs.size() && !dominated; ++j) {
             if (j == i || runs[j].field_error < 0.0 || runs[j].scene != runs[i].scene) continue;
-            dominated = runs[j].seconds_wall <= runs[i].seconds_wall && runs[j].field_error <= runs[i].field_error &&
-                        (runs[j].seconds_wall < runs[i].seconds_wall || runs[j].field_error < runs[i].field_error);
+            dominated = runs[j].seconds_wall <= runs[i].seconds_wall &&
+                        runs[j].field_error <= runs[i].field_error &&
+                        (runs[j].seconds_wall < runs[i].seconds_wall ||
+                         runs[j].field_error < runs[i].field_error);
         }
         if (!dominated) front.push_back(i);
     }
@@ -496,9 +532,10 @@ std::vector<BenchRun> run_bench(const BenchOptions& bench) {
         for (const BakeOptions& o : grid) {
             runs.push_back(run_one(s, "grid", o, store, &field, bench, ff_cache));
             const BenchRun& r = runs.back();
-            std::fprintf(stderr, "bench: %s [%zu/%zu] %s: %.3f s, field error %.4g, %zu triangles\n",
-                         s.name.c_str(), ++k, grid.size(), label(o).c_str(), r.seconds_wall, r.field_error,
-                         r.triangles_out);
+            std::fprintf(stderr,
+                         "bench: %s [%zu/%zu] %s: %.3f s, field error %.4g, %zu triangles\n",
+                         s.name.c_str(), ++k, grid.size(), label(o).c_str(), r.seconds_wall,
+                         r.field_error, r.triangles_out);
         }
     }
 
@@ -510,14 +547,17 @@ std::vector<BenchRun> run_bench(const BenchOptions& bench) {
         visdb::Store store = fresh_store(s.scene);
         std::optional<radiosity::DirectField> field;
         if (s.scene.triangle_count() <= bench.field_error_max / 4) field.emplace(s.scene);
-        runs.push_back(run_one(s, kind, scaling, store, field ? &*field : nullptr, bench, ff_cache));
+        runs.push_back(
+            run_one(s, kind, scaling, store, field ? &*field : nullptr, bench, ff_cache));
         const BenchRun& r = runs.back();
-        std::fprintf(stderr, "bench: %s: %zu -> %zu triangles, %zu light triangles, %.3f s, peak %.0f MB\n",
-                     s.name.c_str(), r.triangles_in, r.triangles_out, r.light_triangles, r.seconds_wall,
-                     r.peak_rss_mb);
+        std::fprintf(stderr,
+                     "bench: %s: %zu -> %zu triangles, %zu light triangles, %.3f s, peak %.0f MB\n",
+                     s.name.c_str(), r.triangles_in, r.triangles_out, r.light_triangles,
+                     r.seconds_wall, r.peak_rss_mb);
     };
     // Small before large: the process's resident memory is what is measured
-    for (int lights : bench.light_counts) scale_run(floor_for_triangles(bench.lights_at, lights), "lights");
+    for (int lights : bench.light_counts)
+        scale_run(floor_for_triangles(bench.lights_at, lights), "lights");
     std::vector<std::size_t> sizes = bench.sizes;
     std::sort(sizes.begin(), sizes.end());
     for (std::size_t size : sizes) scale_run(floor_for_triangles(size, 1), "scaling");

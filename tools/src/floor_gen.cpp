@@ -5,10 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <glm/geometric.hpp>
 #include <stdexcept>
 #include <vector>
-
-#include <glm/geometric.hpp>
 
 namespace abrad::tools {
 
@@ -36,10 +35,11 @@ void add_rect(visdb::Surface& s, glm::dvec3 o, glm::dvec3 u, glm::dvec3 v, const
 }
 
 // An axis-aligned box without its bottom face (it stands on something) unless `bottom`.
-void add_box(visdb::Surface& s, const glm::dvec3& lo, const glm::dvec3& hi, double cell, bool bottom) {
+void add_box(visdb::Surface& s, const glm::dvec3& lo, const glm::dvec3& hi, double cell,
+             bool bottom) {
     const glm::dvec3 d = hi - lo;
     const glm::dvec3 X{d.x, 0, 0}, Y{0, d.y, 0}, Z{0, 0, d.z};
-    add_rect(s, {lo.x, lo.y, hi.z}, X, Y, {0, 0, 1}, cell);   // top
+    add_rect(s, {lo.x, lo.y, hi.z}, X, Y, {0, 0, 1}, cell);  // top
     if (bottom) add_rect(s, lo, X, Y, {0, 0, -1}, cell);
     add_rect(s, lo, X, Z, {0, -1, 0}, cell);
     add_rect(s, {lo.x, hi.y, lo.z}, X, Z, {0, 1, 0}, cell);
@@ -83,7 +83,8 @@ void add_furniture(visdb::Surface& s, int kind, glm::dvec2 c, double cell) {
     switch (kind % 3) {
         case 0: {  // table: top slab and four legs
             const glm::dvec2 half{0.8, 0.4};
-            add_box(s, {c.x - half.x, c.y - half.y, 0.71}, {c.x + half.x, c.y + half.y, 0.75}, cell, true);
+            add_box(s, {c.x - half.x, c.y - half.y, 0.71}, {c.x + half.x, c.y + half.y, 0.75}, cell,
+                    true);
             for (int i = 0; i < 4; ++i) {
                 const double x = i & 1 ? c.x + half.x - 0.1 : c.x - half.x + 0.05;
                 const double y = i & 2 ? c.y + half.y - 0.1 : c.y - half.y + 0.05;
@@ -110,11 +111,13 @@ std::uint64_t fnv1a(const std::string& text) {
 }  // namespace
 
 void validate(const FloorOptions& o) {
-    auto fail = [](const std::string& what) { throw std::invalid_argument("generated floor: " + what); };
+    auto fail = [](const std::string& what) {
+        throw std::invalid_argument("generated floor: " + what);
+    };
     if (o.rooms_x < 1 || o.rooms_y < 1 || o.rooms_x > 1000 || o.rooms_y > 1000)
         fail("rooms must be in [1, 1000] along each axis");
-    if (!(o.room_x >= 2.0 && o.room_y >= 2.0 && o.height >= 2.5 && o.room_x < 1e3 && o.room_y < 1e3 &&
-          o.height < 1e2))
+    if (!(o.room_x >= 2.0 && o.room_y >= 2.0 && o.height >= 2.5 && o.room_x < 1e3 &&
+          o.room_y < 1e3 && o.height < 1e2))
         fail("room must be at least 2 x 2 m and 2.5 m high");
     if (!(o.wall > 0.0 && o.wall < 1.0)) fail("wall thickness must be in (0, 1) m");
     if (!(o.door_width > 0.0 && o.door_width < std::min(o.room_x, o.room_y) - 0.2 &&
@@ -128,8 +131,8 @@ void validate(const FloorOptions& o) {
 
 std::string to_string(const FloorOptions& o) {
     char buf[160];
-    std::snprintf(buf, sizeof buf, "%dx%d rooms, cell %g m, %d furniture, %d lights/room", o.rooms_x,
-                  o.rooms_y, o.cell, o.furniture, o.lights);
+    std::snprintf(buf, sizeof buf, "%dx%d rooms, cell %g m, %d furniture, %d lights/room",
+                  o.rooms_x, o.rooms_y, o.cell, o.furniture, o.lights);
     return buf;
 }
 
@@ -138,19 +141,28 @@ visdb::Scene generate_floor(const FloorOptions& o) {
     visdb::Scene scene;
     const std::string name = "generated:" + to_string(o);
     char checksum[17];
-    std::snprintf(checksum, sizeof checksum, "%016llx", static_cast<unsigned long long>(fnv1a(name)));
-    scene.sources.push_back({.path = name, .format = "generated", .checksum = checksum, .size_bytes = 0,
-                             .unit = "m", .up_axis = "z", .imported_at = "", .report = ""});
+    std::snprintf(checksum, sizeof checksum, "%016llx",
+                  static_cast<unsigned long long>(fnv1a(name)));
+    scene.sources.push_back({.path = name,
+                             .format = "generated",
+                             .checksum = checksum,
+                             .size_bytes = 0,
+                             .unit = "m",
+                             .up_axis = "z",
+                             .imported_at = "",
+                             .report = ""});
     scene.materials = {{.name = "floor", .reflectance = {0.3, 0.3, 0.3}},
                        {.name = "wall", .reflectance = {0.7, 0.7, 0.7}},
                        {.name = "ceiling", .reflectance = {0.8, 0.8, 0.8}},
                        {.name = "furniture", .reflectance = {0.5, 0.4, 0.3}},
-                       {.name = "light", .reflectance = {0.0, 0.0, 0.0},
+                       {.name = "light",
+                        .reflectance = {0.0, 0.0, 0.0},
                         .emittance = {o.emittance, o.emittance, o.emittance}}};
     const double px = o.room_x + o.wall, py = o.room_y + o.wall;
     const double total_x = o.rooms_x * px + o.wall;
     auto surface = [&](std::string n, std::uint32_t material) -> visdb::Surface& {
-        scene.surfaces.push_back({.name = std::move(n), .layer = "", .material = material, .source = 0, .mesh = {}});
+        scene.surfaces.push_back(
+            {.name = std::move(n), .layer = "", .material = material, .source = 0, .mesh = {}});
         return scene.surfaces.back();
     };
 
@@ -171,9 +183,13 @@ visdb::Scene generate_floor(const FloorOptions& o) {
         for (int j = 0; j < o.rooms_y; ++j) {
             std::vector<std::pair<double, double>> doors;
             const double y0 = o.wall + j * py;
-            if (i > 0 && i < o.rooms_x) doors.emplace_back(y0 + 0.5 * o.room_y - half_door, y0 + 0.5 * o.room_y + half_door);
-            visdb::Surface& s = surface("wall_y" + std::to_string(i) + "_" + std::to_string(j), kWall);
-            add_wall(s, 1, y0, y0 + o.room_y, i * px, o.wall, o.height, doors, o.door_height, o.cell);
+            if (i > 0 && i < o.rooms_x)
+                doors.emplace_back(y0 + 0.5 * o.room_y - half_door,
+                                   y0 + 0.5 * o.room_y + half_door);
+            visdb::Surface& s =
+                surface("wall_y" + std::to_string(i) + "_" + std::to_string(j), kWall);
+            add_wall(s, 1, y0, y0 + o.room_y, i * px, o.wall, o.height, doors, o.door_height,
+                     o.cell);
         }
     // Door thresholds (the floor inside the openings)
     {
@@ -181,12 +197,14 @@ visdb::Scene generate_floor(const FloorOptions& o) {
         for (int j = 1; j < o.rooms_y; ++j)
             for (int i = 0; i < o.rooms_x; ++i) {
                 const double c = o.wall + i * px + 0.5 * o.room_x;
-                add_rect(s, {c - half_door, j * py, 0}, {o.door_width, 0, 0}, {0, o.wall, 0}, {0, 0, 1}, o.cell);
+                add_rect(s, {c - half_door, j * py, 0}, {o.door_width, 0, 0}, {0, o.wall, 0},
+                         {0, 0, 1}, o.cell);
             }
         for (int i = 1; i < o.rooms_x; ++i)
             for (int j = 0; j < o.rooms_y; ++j) {
                 const double c = o.wall + j * py + 0.5 * o.room_y;
-                add_rect(s, {i * px, c - half_door, 0}, {o.wall, 0, 0}, {0, o.door_width, 0}, {0, 0, 1}, o.cell);
+                add_rect(s, {i * px, c - half_door, 0}, {o.wall, 0, 0}, {0, o.door_width, 0},
+                         {0, 0, 1}, o.cell);
             }
         if (s.mesh.triangles.empty()) scene.surfaces.pop_back();
     }
@@ -195,8 +213,8 @@ visdb::Scene generate_floor(const FloorOptions& o) {
         for (int i = 0; i < o.rooms_x; ++i) {
             const std::string room = "room_" + std::to_string(i) + "_" + std::to_string(j);
             const double x0 = o.wall + i * px, y0 = o.wall + j * py;
-            add_rect(surface(room + "_floor", kFloor), {x0, y0, 0}, {o.room_x, 0, 0}, {0, o.room_y, 0},
-                     {0, 0, 1}, o.cell);
+            add_rect(surface(room + "_floor", kFloor), {x0, y0, 0}, {o.room_x, 0, 0},
+                     {0, o.room_y, 0}, {0, 0, 1}, o.cell);
             add_rect(surface(room + "_ceiling", kCeiling), {x0, y0, o.height}, {o.room_x, 0, 0},
                      {0, o.room_y, 0}, {0, 0, -1}, o.cell);
             if (o.furniture > 0) {
@@ -217,7 +235,8 @@ visdb::Scene generate_floor(const FloorOptions& o) {
                 for (int k = 0; k < o.lights; ++k) {
                     const double cx = x0 + o.room_x * (k % cols + 0.5) / cols;
                     const double cy = y0 + o.room_y * (k / cols + 0.5) / rows;
-                    add_rect(s, {cx - 0.3, cy - 0.3, o.height - 0.005}, {0.6, 0, 0}, {0, 0.6, 0}, {0, 0, -1}, 1.0);
+                    add_rect(s, {cx - 0.3, cy - 0.3, o.height - 0.005}, {0.6, 0, 0}, {0, 0.6, 0},
+                             {0, 0, -1}, 1.0);
                 }
             }
         }

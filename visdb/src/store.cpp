@@ -734,8 +734,9 @@ void Store::add_import(const Scene& imported) {
             if (imported.emittance_unit != stored) {
                 bool stored_emitters = false;
                 {
-                    Statement q(c, "SELECT 1 FROM materials WHERE emittance_r > 0 OR "
-                                   "emittance_g > 0 OR emittance_b > 0 LIMIT 1");
+                    Statement q(c,
+                                "SELECT 1 FROM materials WHERE emittance_r > 0 OR "
+                                "emittance_g > 0 OR emittance_b > 0 LIMIT 1");
                     stored_emitters = q.step();
                 }
                 const bool new_emitters = has_emitters(imported);

@@ -3,12 +3,11 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <glm/vec3.hpp>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "abrad/visdb/model.h"
 
@@ -16,12 +15,12 @@ namespace abrad::convert {
 
 /// Bad input: `what()` is "FILE:LINE: message" (LINE omitted when it does not apply).
 class ImportError : public std::runtime_error {
-public:
+  public:
     ImportError(std::string file, std::size_t line, const std::string& message);
     const std::string& file() const { return m_file; }
     std::size_t line() const { return m_line; }  ///< 1-based; 0 when not tied to a line
 
-private:
+  private:
     std::string m_file;
     std::size_t m_line;
 };
@@ -62,7 +61,7 @@ struct ImportReport {
     std::size_t surfaces_flipped = 0;       ///< surfaces with at least one flipped triangle
     std::size_t overlapping_pairs = 0;      ///< coplanar overlapping triangle pairs (z-fighting)
     std::size_t emitter_triangles = 0;
-    std::vector<std::string> notes;         ///< "FILE:LINE: ..." warnings (unknown statements...)
+    std::vector<std::string> notes;  ///< "FILE:LINE: ..." warnings (unknown statements...)
 
     std::string to_string() const;
 };

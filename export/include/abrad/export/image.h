@@ -61,8 +61,8 @@ glm::vec3 false_colour(double t);
 /// unit (e.g. "W/m²" or "lux") above it. The file is `width + legend width` pixels wide (the
 /// legend is about 90 pixels, more for long labels). Images less than 160 pixels high (a
 /// calculation grid's values, one per point) are first enlarged by the smallest whole factor
-/// that makes them 160 high, each value a square block of pixels. Labels use the TrueType `font` (DejaVu
-/// Sans from fonts-dejavu-core by default) through OpenImageIO's render_text when that file
+/// that makes them 160 high, each value a square block of pixels. Labels use the TrueType `font`
+/// (DejaVu Sans from fonts-dejavu-core by default) through OpenImageIO's render_text when that file
 /// exists and renders, else a built-in 5×7 bitmap font (digits, '.', '-', '+', 'e', and the
 /// letters of "W/m²", "lux"). Throws ExportError on a size mismatch, vmax <= vmin, non-finite
 /// bounds or a write failure.

@@ -14,7 +14,7 @@ namespace abrad::exporter {
 
 /// An error writing an output file; `what()` names the path.
 class ExportError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
@@ -49,8 +49,8 @@ struct PlyOptions {
 /// Throws ExportError naming `path` when the mesh is inconsistent (array lengths, indices out
 /// of range) or the file cannot be written ("PATH: cannot write: ..."). Writes `PATH.tmp`
 /// and renames it, so a failure leaves no partial file at `path`.
-void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh,
-               const ToneMap& tone, const PlyOptions& options = {});
+void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, const ToneMap& tone,
+               const PlyOptions& options = {});
 
 /// Writes `v x y z r g b`, `vn`, faces grouped by surface with `usemtl`, and an MTL beside it
 /// (same stem, .mtl) with each used surface's material (Kd = ρ, Ke = E, d = α). Display

@@ -33,14 +33,14 @@ struct BakeOptions {
     /// from reflecting elements until the unshot fraction is below `converge`, N = N bounces
     /// (Jacobi sweeps).
     int bounces = 0;
-    double converge = 0.005;       ///< unshot power / emitted power at which to stop
-    double element_size = 0.5;     ///< metres: element grid of the interreflection solution
-    double overrelaxation = 1.0;   ///< Southwell ω in [1, 2) when converging
-    bool ambient = true;           ///< spread what is left unshot as the ambient term
+    double converge = 0.005;      ///< unshot power / emitted power at which to stop
+    double element_size = 0.5;    ///< metres: element grid of the interreflection solution
+    double overrelaxation = 1.0;  ///< Southwell ω in [1, 2) when converging
+    bool ambient = true;          ///< spread what is left unshot as the ambient term
     /// When set, receives the convergence curve (unshot fraction against shots and time).
     std::vector<ConvergenceSample>* convergence = nullptr;
     Shading shading = Shading::Exact;
-    int threads = 0;      ///< 0 = all cores
+    int threads = 0;  ///< 0 = all cores
     /// Light reach in metres (0 = unlimited): a light shoots, shades and casts shadow edges only
     /// on triangles whose box meets the cube of this half side around it (cull.h states the
     /// error bound). Triangles wholly behind a light's plane are always culled (exact).
@@ -49,8 +49,8 @@ struct BakeOptions {
     /// planar region), then refined where the exact irradiance departs from linear.
     bool dm = true;
     LightModel lights = LightModel::Area;  ///< how lights cast shadow edges
-    double dm_min_angle = 0.0;      ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
-    int refine_rounds = 4;          ///< illumination-driven refinement rounds (0 = shadow edges only)
+    double dm_min_angle = 0.0;  ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
+    int refine_rounds = 4;      ///< illumination-driven refinement rounds (0 = shadow edges only)
     double refine_tolerance = 0.1;  ///< split an edge when its midpoint's exact irradiance departs
                                     ///< from the linear interpolation by more than this, relative
     double refine_min_edge = 0.05;  ///< edges shorter than this (metres) are not split
@@ -58,7 +58,7 @@ struct BakeOptions {
 
 /// Bad bake settings or a scene that cannot be baked (no lights...): the caller exits 2.
 class BakeError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
@@ -76,7 +76,8 @@ void validate(const BakeOptions& options);
 /// interpolated from the element solution, is added to every vertex's direct value. Without
 /// discontinuity meshing the result's mesh is the scene's, with one vertex per (surface,
 /// position, face normal); with it, each planar region is re-meshed (conforming: no
-/// T-vertices) and every vertex, old and new, is shaded by the shading mode. Parameters and statistics are filled, `name` is options.name.
+/// T-vertices) and every vertex, old and new, is shaded by the shading mode. Parameters and
+/// statistics are filled, `name` is options.name.
 visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
                  const ProgressFn& progress = {});
 

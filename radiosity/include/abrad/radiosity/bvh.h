@@ -4,10 +4,9 @@
 
 #include <array>
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <span>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "abrad/radiosity/shoot.h"
 
@@ -19,8 +18,8 @@ struct Box {
     void grow(const glm::dvec3& p);
     void grow(const Box& b);
     bool overlaps(const Box& b) const {
-        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y && lo.z <= b.hi.z &&
-               b.lo.z <= hi.z;
+        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
+               lo.z <= b.hi.z && b.lo.z <= hi.z;
     }
 };
 
@@ -28,7 +27,7 @@ struct Box {
 /// box and the hull's face planes, for shaft culling (Haines & Wallace 1994): a box outside
 /// one plane cannot meet the hull. Conservative: planes are pushed out by a relative 1e-9.
 class Hull {
-public:
+  public:
     /// Up to 8 points; with fewer than 4 affinely independent ones only the box (and, for a
     /// flat set, its plane's two sides) bound the region.
     explicit Hull(std::span<const glm::dvec3> points);
@@ -46,7 +45,7 @@ public:
         return true;
     }
 
-private:
+  private:
     Box m_box;
     struct Plane {
         glm::dvec3 n;
@@ -58,7 +57,7 @@ private:
 
 /// A static BVH over patches; leaves hold up to 4 patches.
 class Bvh {
-public:
+  public:
     explicit Bvh(std::span<const Patch> patches);
 
     /// Calls `visit(patch_index)` for every patch whose box overlaps `query`.
@@ -70,10 +69,11 @@ public:
     /// Calls `visit(patch_index)` for every patch whose box meets `hull` (conservative).
     template <typename Visit>
     void query(const Hull& hull, Visit&& visit) const {
-        traverse([&](const Box& b) { return b.overlaps(hull.box()) && hull.may_overlap(b); }, visit);
+        traverse([&](const Box& b) { return b.overlaps(hull.box()) && hull.may_overlap(b); },
+                 visit);
     }
 
-private:
+  private:
     struct Node {
         Box box;
         std::uint32_t first = 0;  // first child (inner) or first index into m_order (leaf)

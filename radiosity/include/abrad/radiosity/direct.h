@@ -4,10 +4,9 @@
 // exact clipping in visible_form_factor).
 
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <span>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "abrad/radiosity/bvh.h"
 #include "abrad/radiosity/shoot.h"
@@ -21,14 +20,15 @@ namespace abrad::radiosity {
 template <typename Visit>
 void for_each_shadow_candidate(const Bvh& bvh, std::span<const Patch> patches, std::uint32_t light,
                                const glm::dvec3& x, Visit&& visit) {
-    const glm::dvec3 corners[4] = {patches[light].p[0], patches[light].p[1], patches[light].p[2], x};
+    const glm::dvec3 corners[4] = {patches[light].p[0], patches[light].p[1], patches[light].p[2],
+                                   x};
     bvh.query(Hull(corners), [&](std::uint32_t id) {
         if (id != light) visit(id);
     });
 }
 
 class DirectField {
-public:
+  public:
     /// Prepares the scene's triangles; throws BakeError when the scene has no light.
     explicit DirectField(const visdb::Scene& scene);
 
@@ -37,7 +37,7 @@ public:
 
     std::size_t light_triangles() const { return m_lights.size(); }
 
-private:
+  private:
     std::vector<visdb::Rgb> m_emittance;  // per patch; declared first: filled with m_patches
     std::vector<Patch> m_patches;
     std::vector<std::uint32_t> m_lights;

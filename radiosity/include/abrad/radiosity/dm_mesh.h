@@ -9,11 +9,10 @@
 
 #include <array>
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <limits>
 #include <span>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 namespace abrad::radiosity {
 
@@ -21,7 +20,7 @@ inline constexpr std::uint32_t kNewVertex = std::numeric_limits<std::uint32_t>::
 
 /// A planar, edge-connected piece of one surface: the triangles re-meshed together.
 struct PlanarRegion {
-    glm::dvec3 normal{0.0};               ///< unit normal; triangles are counter-clockwise seen from it
+    glm::dvec3 normal{0.0};  ///< unit normal; triangles are counter-clockwise seen from it
     std::vector<glm::dvec3> positions;    ///< the region's vertices (on the plane up to rounding)
     std::vector<glm::u32vec3> triangles;  ///< indices into positions; their union is the region
     /// Segments that must become mesh edges (shadow edges). They lie in the plane up to
@@ -41,17 +40,20 @@ struct DmOptions {
 
 struct MeshedRegion {
     std::vector<glm::dvec3> positions;
-    std::vector<glm::u32vec3> triangles;       ///< counter-clockwise seen from the region's normal
-    std::vector<std::uint32_t> source_vertex;  ///< per vertex: index in the input positions, or kNewVertex
+    std::vector<glm::u32vec3> triangles;  ///< counter-clockwise seen from the region's normal
+    std::vector<std::uint32_t>
+        source_vertex;  ///< per vertex: index in the input positions, or kNewVertex
 };
 
 struct DmStats {
     std::size_t triangles_in = 0, triangles_out = 0;
-    std::size_t constraints_in = 0;       ///< segments given
-    std::size_t constraints_dropped = 0;  ///< segments outside their region or shorter than merge_distance
-    std::size_t points_merged = 0;        ///< points and segment ends snapped to another point or an edge
-    std::size_t conformity_points = 0;    ///< vertices added on a boundary because a neighbour has them
-    std::size_t rounds = 0;               ///< meshing rounds until every shared boundary conformed
+    std::size_t constraints_in = 0;  ///< segments given
+    std::size_t constraints_dropped =
+        0;  ///< segments outside their region or shorter than merge_distance
+    std::size_t points_merged = 0;  ///< points and segment ends snapped to another point or an edge
+    std::size_t conformity_points =
+        0;                   ///< vertices added on a boundary because a neighbour has them
+    std::size_t rounds = 0;  ///< meshing rounds until every shared boundary conformed
 };
 
 /// Meshes every region. Original vertices keep their exact positions; new vertices lie in
@@ -60,7 +62,7 @@ struct DmStats {
 /// a wall of two triangles) or added by constraints or refinement, becomes a vertex of both,
 /// with the same position. Area is preserved to 1e-9 relative. Regions are meshed in parallel.
 /// Throws std::invalid_argument for a region with a zero normal or bad indices.
-std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions, const DmOptions& options,
-                                       DmStats* stats = nullptr);
+std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
+                                       const DmOptions& options, DmStats* stats = nullptr);
 
 }  // namespace abrad::radiosity

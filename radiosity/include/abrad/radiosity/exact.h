@@ -9,10 +9,9 @@
 // the point's own parallel plane are clipped away before projecting.
 
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <span>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "abrad/radiosity/shoot.h"
 

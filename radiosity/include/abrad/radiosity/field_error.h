@@ -5,7 +5,6 @@
 
 #include <cstddef>
 #include <functional>
-
 #include <glm/vec3.hpp>
 
 #include "abrad/visdb/model.h"
@@ -20,7 +19,7 @@ struct FieldErrorOptions {
 };
 
 struct FieldError {
-    double relative_l1 = 0.0;   ///< Σ A·mean|interpolated − exact| / Σ A·mean|exact| (channel mean)
+    double relative_l1 = 0.0;  ///< Σ A·mean|interpolated − exact| / Σ A·mean|exact| (channel mean)
     double absolute_l1 = 0.0;   ///< Σ A·mean|interpolated − exact| / Σ A, W/m²
     double mean_exact = 0.0;    ///< Σ A·mean(exact) / Σ A, W/m²
     double area_m2 = 0.0;       ///< receiver area measured
@@ -33,7 +32,7 @@ struct FieldError {
 /// normal is its geometric one (counter-clockwise front). Parallel over triangles; `exact`
 /// must be safe to call concurrently. Throws std::invalid_argument for a mesh without
 /// irradiance or with a surface index outside `scene`.
-FieldError field_error(const visdb::Scene& scene, const visdb::BakeMesh& mesh, const IrradianceFn& exact,
-                       const FieldErrorOptions& options = {});
+FieldError field_error(const visdb::Scene& scene, const visdb::BakeMesh& mesh,
+                       const IrradianceFn& exact, const FieldErrorOptions& options = {});
 
 }  // namespace abrad::radiosity

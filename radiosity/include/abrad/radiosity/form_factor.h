@@ -2,9 +2,8 @@
 // Exact form factors: the point-to-polygon form factor (Lambert 1760; Baum, Rushmeier &
 // Winget 1989) and textbook closed forms used as references (Howell's catalogue, C-11/C-14).
 
-#include <span>
-
 #include <glm/vec3.hpp>
+#include <span>
 
 namespace abrad::radiosity {
 

@@ -13,10 +13,9 @@
 
 #include <array>
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <string>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 namespace abrad::radiosity {
 
@@ -43,7 +42,7 @@ glm::dvec3 to_face(int face, const glm::dvec3& local);
 
 /// A hemicube of resolution R (R×R top face, four R×R/2 half faces; R even, >= 2).
 class Hemicube {
-public:
+  public:
     explicit Hemicube(int resolution);
 
     int resolution() const { return m_resolution; }
@@ -71,7 +70,7 @@ public:
 
     std::string to_string() const;
 
-private:
+  private:
     int m_resolution;
     std::array<std::size_t, kFaceCount> m_offset{};
     std::vector<double> m_delta;

@@ -13,15 +13,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
-
-#include <glm/vec2.hpp>
-#include <glm/vec3.hpp>
 
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/hemicube.h"
@@ -44,11 +43,11 @@ struct IndirectOptions {
     /// Number of bounces (each one a Jacobi sweep: every element shoots what it received in
     /// the previous bounce), or 0 to converge on the unshot fraction instead.
     int bounces = 0;
-    double converge = 0.005;      ///< stop when unshot power / emitted power falls below this
-    double element_size = 0.5;    ///< metres: side of the element grid in each region
-    double overrelaxation = 1.0;  ///< Southwell factor ω in [1, 2): shoot ω × unshot
-    bool ambient = true;          ///< spread what is left unshot as the ambient term
-    std::size_t max_shots = 2'000'000;   ///< a safety bound on shots when converging
+    double converge = 0.005;            ///< stop when unshot power / emitted power falls below this
+    double element_size = 0.5;          ///< metres: side of the element grid in each region
+    double overrelaxation = 1.0;        ///< Southwell factor ω in [1, 2): shoot ω × unshot
+    bool ambient = true;                ///< spread what is left unshot as the ambient term
+    std::size_t max_shots = 2'000'000;  ///< a safety bound on shots when converging
     std::size_t row_cache_bytes = std::size_t{2} << 30;  ///< form-factor rows kept for reuse
     Visibility method = Visibility::ABuffer;
     int resolution = 50;
@@ -81,11 +80,11 @@ struct IndirectSolution {
     visdb::Rgb at(std::uint32_t region, const glm::dvec3& p) const;
 
     // What the solution did
-    std::size_t pieces = 0;           ///< triangles the hemicubes rasterize
-    std::size_t shots = 0;            ///< element shots (the lights' not counted)
-    std::size_t rows_computed = 0;    ///< hemicubes placed at elements
-    std::size_t rows_cached = 0;      ///< form-factor rows kept for reuse at the end
-    int bounces_done = 0;             ///< complete bounces (bounce mode)
+    std::size_t pieces = 0;              ///< triangles the hemicubes rasterize
+    std::size_t shots = 0;               ///< element shots (the lights' not counted)
+    std::size_t rows_computed = 0;       ///< hemicubes placed at elements
+    std::size_t rows_cached = 0;         ///< form-factor rows kept for reuse at the end
+    int bounces_done = 0;                ///< complete bounces (bounce mode)
     visdb::Rgb ambient_irradiance{0.0};  ///< added to every element by the ambient term
     double seconds = 0.0;
     EnergyBalance energy;
@@ -96,10 +95,10 @@ struct IndirectSolution {
         std::uint32_t region = 0;
         glm::ivec2 cell{0};
         glm::dvec3 centroid{0.0};
-        double area = 0.0;             ///< m²
-        visdb::Rgb reflectance{0.0};   ///< area-weighted over its triangles
-        visdb::Rgb direct{0.0};        ///< irradiance from the lights' hemicubes
-        visdb::Rgb indirect{0.0};      ///< irradiance from other elements (+ ambient)
+        double area = 0.0;            ///< m²
+        visdb::Rgb reflectance{0.0};  ///< area-weighted over its triangles
+        visdb::Rgb direct{0.0};       ///< irradiance from the lights' hemicubes
+        visdb::Rgb indirect{0.0};     ///< irradiance from other elements (+ ambient)
     };
     std::vector<Element> elements;
 
@@ -137,14 +136,14 @@ namespace abrad::radiosity {
 /// mean of its vertices), so a probe anywhere (on a surface or in the air over a work plane)
 /// gets the light the surfaces reflect towards it. Emitted light is the direct part's.
 class IndirectField {
-public:
+  public:
     /// `mesh` is a bake of `scene` (its triangle_surface indexes scene.surfaces).
     IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& mesh, int resolution = 200);
 
     /// Irradiance (RGB) at `x` on a plane with unit normal `n`, from reflecting surfaces.
     visdb::Rgb irradiance(const glm::dvec3& x, const glm::dvec3& n) const;
 
-private:
+  private:
     glm::dvec3 m_origin{0.0};  // local frame of the patches (survey coordinates)
     std::vector<Patch> m_patches;
     std::vector<glm::dvec3> m_centroid, m_normal;
@@ -165,7 +164,7 @@ struct ProbePoint {
 /// The irradiance abrad reports at arbitrary points (probes, calculation grids): exact direct
 /// light plus, when the bake has interreflection, the indirect part gathered from it.
 class PointIrradiance {
-public:
+  public:
     /// `bake` may be null (direct light only); a bake with parameter bounces = 0 adds nothing.
     /// Throws BakeError when the scene has no light.
     PointIrradiance(const visdb::Scene& scene, const visdb::Bake* bake);
@@ -175,7 +174,7 @@ public:
 
     bool has_indirect() const { return m_indirect.has_value(); }
 
-private:
+  private:
     DirectField m_direct;
     std::optional<IndirectField> m_indirect;
 };

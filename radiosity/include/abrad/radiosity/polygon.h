@@ -9,18 +9,17 @@
 #include <array>
 #include <cassert>
 #include <cstddef>
-#include <string>
-
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <string>
 
 namespace abrad::radiosity {
 
 /// A polygon of at most N vertices stored inline (no heap allocation).
 template <typename V, std::size_t N>
 class FixedPolygon {
-public:
+  public:
     static constexpr std::size_t kCapacity = N;
 
     std::size_t size() const { return m_size; }
@@ -35,7 +34,7 @@ public:
     const V* begin() const { return m_vertices.data(); }
     const V* end() const { return m_vertices.data() + m_size; }
 
-private:
+  private:
     std::array<V, N> m_vertices{};
     std::size_t m_size = 0;
 };

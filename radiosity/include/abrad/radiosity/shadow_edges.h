@@ -5,13 +5,12 @@
 // removed (translucent occluders let them pass).
 
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "abrad/radiosity/shoot.h"
 
@@ -33,10 +32,11 @@ struct ShadowSegment {
 };
 
 struct ShadowStats {
-    std::size_t edges_projected = 0;        ///< occluder edge × light point projections made
-    std::size_t shared_edges_skipped = 0;   ///< shared edges that are no silhouette from the light point
-    std::size_t segments_split = 0;         ///< segments cut by an opaque occluder in front of them
-    std::size_t segments = 0;               ///< segments returned
+    std::size_t edges_projected = 0;  ///< occluder edge × light point projections made
+    std::size_t shared_edges_skipped =
+        0;                           ///< shared edges that are no silhouette from the light point
+    std::size_t segments_split = 0;  ///< segments cut by an opaque occluder in front of them
+    std::size_t segments = 0;        ///< segments returned
     ShadowStats& operator+=(const ShadowStats& o);
 };
 

@@ -5,13 +5,12 @@
 // the kept fragment lists into occlusion lists (Algorithm 2, MergeOcclusionList).
 
 #include <cstdint>
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
 #include <limits>
 #include <span>
 #include <string>
 #include <vector>
-
-#include <glm/geometric.hpp>
-#include <glm/vec3.hpp>
 
 #include "abrad/radiosity/hemicube.h"
 
@@ -31,8 +30,8 @@ enum class Visibility {
 
 struct ShootOptions {
     Visibility method = Visibility::ABuffer;
-    int subpixels = 8;        ///< A-buffer mask side S: 4, 8 or 16 (fine masks are 2S)
-    bool occlusion = true;    ///< also build occlusion lists (Algorithm 2)
+    int subpixels = 8;      ///< A-buffer mask side S: 4, 8 or 16 (fine masks are 2S)
+    bool occlusion = true;  ///< also build occlusion lists (Algorithm 2)
     /// Patch index the shooter belongs to (never rasterized), or kNoPatch.
     std::uint32_t exclude = std::numeric_limits<std::uint32_t>::max();
     /// When set, only these patch indices are rasterized (the rest get form factor 0): the

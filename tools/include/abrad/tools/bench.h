@@ -23,18 +23,19 @@ struct BenchScene {
 };
 
 struct BenchOptions {
-    std::filesystem::path out;             ///< directory for CSV, PNG, Markdown, work database
-    std::vector<BenchScene> scenes;        ///< baked over the whole settings grid
-    bool quick = false;                    ///< a small grid (3 hemicubes, DM off/area, both shadings)
-    std::vector<std::size_t> sizes;        ///< generated floors (target triangles) for the scaling curve
-    std::vector<int> light_counts;         ///< lights per room for the light scaling, at `lights_at`
-    std::size_t lights_at = 30000;         ///< target triangles of the light-scaling floor
-    radiosity::BakeOptions scaling;        ///< settings of the scaling runs (the defaults)
-    std::size_t field_error_max = 200000;  ///< skip the field error above this many output triangles
-    int subdivisions = 2;                  ///< field-error samples: k² per triangle
-    int threads = 0;                       ///< 0 = all cores
-    bool plot = true;                      ///< run gnuplot (when found) for the PNGs
-    std::string command;                   ///< the command line, quoted in the summary
+    std::filesystem::path out;       ///< directory for CSV, PNG, Markdown, work database
+    std::vector<BenchScene> scenes;  ///< baked over the whole settings grid
+    bool quick = false;              ///< a small grid (3 hemicubes, DM off/area, both shadings)
+    std::vector<std::size_t> sizes;  ///< generated floors (target triangles) for the scaling curve
+    std::vector<int> light_counts;   ///< lights per room for the light scaling, at `lights_at`
+    std::size_t lights_at = 30000;   ///< target triangles of the light-scaling floor
+    radiosity::BakeOptions scaling;  ///< settings of the scaling runs (the defaults)
+    std::size_t field_error_max =
+        200000;            ///< skip the field error above this many output triangles
+    int subdivisions = 2;  ///< field-error samples: k² per triangle
+    int threads = 0;       ///< 0 = all cores
+    bool plot = true;      ///< run gnuplot (when found) for the PNGs
+    std::string command;   ///< the command line, quoted in the summary
 };
 
 /// One bake of the benchmark.
@@ -43,19 +44,19 @@ struct BenchRun {
     std::string kind;  ///< "grid" or "scaling"
     std::size_t triangles_in = 0, light_triangles = 0, triangles_out = 0;
     radiosity::BakeOptions options;
-    double seconds_wall = 0.0;  ///< the bake call, wall clock
+    double seconds_wall = 0.0;   ///< the bake call, wall clock
     double seconds_store = 0.0;  ///< writing the bake to the database
-    double peak_rss_mb = 0.0;   ///< peak resident memory of the process during the bake and store
-                                ///< (sampled every 2 ms), MB
-    double ff_error = -1.0;     ///< hemicube form-factor error, relative L1 (-1: not measured)
-    double field_error = -1.0;  ///< field error, relative L1 (-1: not measured)
+    double peak_rss_mb = 0.0;    ///< peak resident memory of the process during the bake and store
+                                 ///< (sampled every 2 ms), MB
+    double ff_error = -1.0;      ///< hemicube form-factor error, relative L1 (-1: not measured)
+    double field_error = -1.0;   ///< field error, relative L1 (-1: not measured)
     std::vector<std::pair<std::string, double>> statistics;  ///< the bake's own
-    double stat(const std::string& key) const;  ///< a statistic, or 0 when absent
+    double stat(const std::string& key) const;               ///< a statistic, or 0 when absent
 };
 
-/// The settings grid: Z-buffer at R = 50, 100, 200, 400; A-buffer at R = 26 (the even resolution nearest 25), 50, 100 with 4x4,
-/// 8x8 and 16x16 masks; DM off, or on with each light model; patch and exact shading (quick:
-/// Z-buffer 50, A-buffer 26/4x4 and 50/8x8, DM off and area).
+/// The settings grid: Z-buffer at R = 50, 100, 200, 400; A-buffer at R = 26 (the even resolution
+/// nearest 25), 50, 100 with 4x4, 8x8 and 16x16 masks; DM off, or on with each light model; patch
+/// and exact shading (quick: Z-buffer 50, A-buffer 26/4x4 and 50/8x8, DM off and area).
 std::vector<radiosity::BakeOptions> settings_grid(bool quick, int threads);
 
 /// "abuffer R50 8x8, DM area, exact".

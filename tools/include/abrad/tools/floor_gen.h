@@ -12,14 +12,14 @@ namespace abrad::tools {
 
 /// Parameters of a generated floor. Lengths in metres; the floor lies at z = 0, Z up.
 struct FloorOptions {
-    int rooms_x = 1, rooms_y = 1;  ///< rooms along x and y (each >= 1)
+    int rooms_x = 1, rooms_y = 1;                     ///< rooms along x and y (each >= 1)
     double room_x = 5.0, room_y = 4.0, height = 3.0;  ///< inner room size
-    double wall = 0.1;           ///< wall thickness (walls are boxes: both faces receive)
+    double wall = 0.1;  ///< wall thickness (walls are boxes: both faces receive)
     double door_width = 0.9, door_height = 2.1;  ///< one door in every inner wall
-    double cell = 0.5;           ///< floor, ceiling and wall faces are cut into cells of this size
-    int furniture = 2;           ///< pieces per room (tables, cabinets, chairs cycle), 0..16
-    int lights = 1;              ///< ceiling panels per room (0.6 x 0.6 m, two triangles each), 0..16
-    double emittance = 100.0;    ///< W/m² of every panel
+    double cell = 0.5;         ///< floor, ceiling and wall faces are cut into cells of this size
+    int furniture = 2;         ///< pieces per room (tables, cabinets, chairs cycle), 0..16
+    int lights = 1;            ///< ceiling panels per room (0.6 x 0.6 m, two triangles each), 0..16
+    double emittance = 100.0;  ///< W/m² of every panel
 };
 
 /// Throws std::invalid_argument naming the field when a value is out of range.

@@ -6,12 +6,11 @@
 // counter-clockwise (right-hand normal).
 
 #include <cstdint>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <glm/vec2.hpp>
-#include <glm/vec3.hpp>
 
 namespace abrad::visdb {
 
@@ -38,8 +37,8 @@ struct TriangleMesh {
 
 /// A named piece of the model: one object/group of the source file with one material.
 struct Surface {
-    std::string name;       ///< object or group name from the source file
-    std::string layer;      ///< CAD layer, empty when the format has none
+    std::string name;            ///< object or group name from the source file
+    std::string layer;           ///< CAD layer, empty when the format has none
     std::uint32_t material = 0;  ///< index into Scene::materials
     std::uint32_t source = 0;    ///< index into Scene::sources
     TriangleMesh mesh;
@@ -68,9 +67,9 @@ struct CalculationGrid {
 
 /// One imported file: where it came from and what the import did to it.
 struct Source {
-    std::string path;         ///< the path as given on the command line
-    std::string format;       ///< "obj", ...
-    std::string checksum;     ///< FNV-1a 64 of the file's bytes, 16 hex digits
+    std::string path;      ///< the path as given on the command line
+    std::string format;    ///< "obj", ...
+    std::string checksum;  ///< FNV-1a 64 of the file's bytes, 16 hex digits
     std::uint64_t size_bytes = 0;
     std::string unit;         ///< unit of the file before conversion to metres
     std::string up_axis;      ///< up axis of the file before conversion to Z up
@@ -100,20 +99,20 @@ struct Scene {
 /// surfaces or across faces of different normals. All arrays indexed by vertex have the
 /// same length; `triangle_surface` has one entry per triangle (index into Scene::surfaces).
 struct BakeMesh {
-    std::vector<glm::dvec3> positions;        ///< metres
-    std::vector<glm::vec3> normals;           ///< unit, the front side
+    std::vector<glm::dvec3> positions;  ///< metres
+    std::vector<glm::vec3> normals;     ///< unit, the front side
     std::vector<glm::u32vec3> triangles;
     std::vector<std::uint32_t> triangle_surface;
-    std::vector<glm::vec3> irradiance;        ///< H, W/m² (or lux), per vertex
-    std::vector<glm::vec3> radiosity;         ///< B = E + ρH, W/m² (or lm/m²), per vertex
+    std::vector<glm::vec3> irradiance;  ///< H, W/m² (or lux), per vertex
+    std::vector<glm::vec3> radiosity;   ///< B = E + ρH, W/m² (or lm/m²), per vertex
 };
 
 /// A stored bake: its settings, what it measured, and its shaded mesh.
 struct Bake {
-    std::int64_t id = 0;           ///< assigned by the store
+    std::int64_t id = 0;  ///< assigned by the store
     std::string name;
-    std::string created_at;        ///< ISO 8601 UTC
-    std::string unit = "W/m2";     ///< unit of irradiance/radiosity
+    std::string created_at;                                       ///< ISO 8601 UTC
+    std::string unit = "W/m2";                                    ///< unit of irradiance/radiosity
     std::vector<std::pair<std::string, std::string>> parameters;  ///< e.g. {"method","abuffer"}
     std::vector<std::pair<std::string, double>> statistics;       ///< e.g. {"seconds_total",0.4}
     BakeMesh mesh;

@@ -16,7 +16,7 @@ namespace abrad::visdb {
 
 /// An error reading or writing the database; `what()` names the file.
 class StoreError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
@@ -44,7 +44,7 @@ inline constexpr int kSchemaVersion = 2;
 
 /// A handle on one .visdb file. Move-only.
 class Store {
-public:
+  public:
     /// Opens (or creates) `path`. Throws StoreError naming the path when the file is missing
     /// (ReadOnly/ReadWrite), is not an abrad database, or has a newer schema version.
     static Store open(const std::string& path, OpenMode mode);
@@ -80,7 +80,7 @@ public:
     /// The path the store was opened with.
     const std::string& path() const;
 
-private:
+  private:
     struct Impl;
     explicit Store(std::unique_ptr<Impl> impl);
     std::unique_ptr<Impl> m_impl;
