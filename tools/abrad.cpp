@@ -334,24 +334,6 @@ void import_into(const visdb::Scene& scene, const std::string& db) {
               << " triangles in " << db << "\n";
 }
 
-double stat_value(const std::vector<std::pair<std::string, double>>& stats,
-                  const std::string& key) {
-    for (const auto& [k, v] : stats)
-        if (k == key) return v;
-    return std::nan("");
-}
-
-std::string stat_text(const std::vector<std::pair<std::string, double>>& stats,
-                      const std::string& key) {
-    for (const auto& [k, v] : stats)
-        if (k == key) {
-            std::ostringstream s;
-            s << v;
-            return s.str();
-        }
-    return "-";
-}
-
 // Irradiance range over the vertices of receivers (surfaces that do not emit).
 void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
     double lo = 1e300, hi = 0.0, sum = 0.0;
@@ -365,43 +347,36 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
             if (seen[v]) continue;
             seen[v] = true;
             const glm::vec3 h = b.mesh.irradiance[v];
-            const double y = 0.2126 * h.x + 0.7152 * h.y + 0.0722 * h.z;
+            const double y = visdb::luminance(h);
             lo = std::min(lo, y);
             hi = std::max(hi, y);
             sum += y;
             ++n;
         }
     }
-    std::cout << "bake '" << b.name << "': " << stat_text(b.statistics, "triangles")
-              << " triangles, " << stat_text(b.statistics, "vertices") << " vertices, "
-              << stat_text(b.statistics, "light_triangles") << " light triangles, "
-              << stat_text(b.statistics, "seconds_total") << " s\n";
+    const visdb::BakeStats& st = b.statistics;
+    std::cout << "bake '" << b.name << "': " << st.triangles << " triangles, " << st.vertices
+              << " vertices, " << st.light_triangles << " light triangles, " << st.seconds_total
+              << " s\n";
     if (n)
         std::cout << "  receiver irradiance (luminance) min " << lo << " / mean " << sum / double(n)
                   << " / max " << hi << " " << b.unit << "\n";
-    if (stat_text(b.statistics, "dm_triangles_before") != "-")
-        std::cout << "  discontinuity mesh: " << stat_text(b.statistics, "dm_triangles_before")
-                  << " -> " << stat_text(b.statistics, "triangles") << " triangles, "
-                  << stat_text(b.statistics, "dm_shadow_segments") << " shadow segments, "
-                  << stat_text(b.statistics, "dm_refine_points") << " refinement points in "
-                  << stat_text(b.statistics, "dm_rounds") << " rounds, "
-                  << stat_text(b.statistics, "seconds_dm") << " s\n";
+    if (st.dm)
+        std::cout << "  discontinuity mesh: " << st.dm->triangles_before << " -> " << st.triangles
+                  << " triangles, " << st.dm->segments << " shadow segments, "
+                  << st.dm->refine_points << " refinement points in " << st.dm->rounds
+                  << " rounds, " << st.dm->seconds << " s\n";
     // Power is in W for radiometric bakes, lm for photometric ones (lux bakes)
     const char* power = b.unit == "lux" ? " lm" : " W";
-    std::cout << "  emitted " << stat_text(b.statistics, "emitted_power_w") << power
-              << ", reaching receivers " << stat_text(b.statistics, "received_power_w") << power
-              << " (mean over RGB)\n";
-    if (stat_text(b.statistics, "indirect_elements") != "-") {
-        std::cout << "  interreflection: " << stat_text(b.statistics, "indirect_elements")
-                  << " elements, " << stat_text(b.statistics, "indirect_shots") << " shots ("
-                  << stat_text(b.statistics, "indirect_rows") << " hemicubes), unshot "
-                  << 100.0 * stat_value(b.statistics, "indirect_unshot_fraction") << "%, ambient "
-                  << stat_text(b.statistics, "indirect_ambient") << " " << b.unit << ", "
-                  << stat_text(b.statistics, "seconds_indirect") << " s\n"
-                  << "  energy: emitted " << stat_text(b.statistics, "energy_emitted_w") << power
-                  << " = absorbed " << stat_text(b.statistics, "energy_absorbed_w") << power
-                  << " + escaped " << stat_text(b.statistics, "energy_escaped_w") << power
-                  << " + unshot " << stat_text(b.statistics, "energy_unshot_w") << power << "\n";
+    std::cout << "  emitted " << st.emitted_power_w << power << ", reaching receivers "
+              << st.received_power_w << power << " (mean over RGB)\n";
+    if (const auto& i = st.indirect) {
+        std::cout << "  interreflection: " << i->elements << " elements, " << i->shots << " shots ("
+                  << i->rows << " hemicubes), unshot " << 100.0 * i->unshot_fraction
+                  << "%, ambient " << i->ambient << " " << b.unit << ", " << i->seconds << " s\n"
+                  << "  energy: emitted " << i->energy_emitted_w << power << " = absorbed "
+                  << i->energy_absorbed_w << power << " + escaped " << i->energy_escaped_w << power
+                  << " + unshot " << i->energy_unshot_w << power << "\n";
     }
 }
 
@@ -842,7 +817,7 @@ void print_info(const std::string& db) {
                   << "]\n    parameters:";
         for (const auto& [k, v] : b.parameters) std::cout << " " << k << "=" << v;
         std::cout << "\n    statistics:";
-        for (const auto& [k, v] : b.statistics) std::cout << " " << k << "=" << v;
+        for (const auto& [k, v] : visdb::to_pairs(b.statistics)) std::cout << " " << k << "=" << v;
         std::cout << "\n";
     }
 }
@@ -943,9 +918,9 @@ void field_error(const std::string& db, const std::string& bake_name, int subdiv
     std::printf(
         "bake: %s\ntriangles: %zu\nreceiver_triangles: %zu\nreceiver_area_m2: %.6g\n"
         "samples: %zu\nrelative_l1: %.6g\nabsolute_l1_w_m2: %.6g\nmean_exact_w_m2: %.6g\n"
-        "bake_seconds: %s\nmeasure_seconds: %.3g\n",
+        "bake_seconds: %.6g\nmeasure_seconds: %.3g\n",
         b.name.c_str(), b.mesh.triangles.size(), e.triangles, e.area_m2, e.samples, e.relative_l1,
-        e.absolute_l1, e.mean_exact, stat_text(b.statistics, "seconds_total").c_str(), seconds);
+        e.absolute_l1, e.mean_exact, b.statistics.seconds_total, seconds);
 }
 
 // ---------------------------------------------------------------------------------------

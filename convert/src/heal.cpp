@@ -95,22 +95,13 @@ struct TriangleKeyHash {
 };
 
 double triangle_area(const std::vector<glm::dvec3>& p, const glm::u32vec3& t) {
-    return 0.5 * glm::length(glm::cross(p[t.y] - p[t.x], p[t.z] - p[t.x]));
+    return visdb::triangle_area(p[t.x], p[t.y], p[t.z]);
 }
 
 double orient(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
     return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
 
-/// An orthonormal basis u, v of the plane with normal w (unit), u × v = w.
-std::pair<glm::dvec3, glm::dvec3> plane_basis(const glm::dvec3& w) {
-    const glm::dvec3 axis = std::abs(w.x) <= std::abs(w.y) && std::abs(w.x) <= std::abs(w.z)
-                                ? glm::dvec3{1.0, 0.0, 0.0}
-                                : (std::abs(w.y) <= std::abs(w.z) ? glm::dvec3{0.0, 1.0, 0.0}
-                                                                  : glm::dvec3{0.0, 0.0, 1.0});
-    const glm::dvec3 u = glm::normalize(glm::cross(w, axis));
-    return {u, glm::cross(w, u)};
-}
 
 /// Triangulates one polygon (welded vertex ids, no two cyclically consecutive ids equal, at
 /// least 3) by ear clipping in its Newell plane. Appends exactly ids.size() - 2 triangles in
@@ -140,7 +131,7 @@ double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<s
     const glm::dvec3 w = normal / length;
 
     // Project onto the plane basis _u_, _v_ (u × v = w: the polygon turns counter-clockwise)
-    const auto [u, v] = plane_basis(w);
+    const auto [u, v] = visdb::orthonormal_basis(w);
     std::vector<glm::dvec2> q(n);
     glm::dvec3 lo{std::numeric_limits<double>::max()};
     glm::dvec3 hi{std::numeric_limits<double>::lowest()};
@@ -437,7 +428,7 @@ std::map<std::pair<std::uint32_t, std::uint32_t>, OverlapTally> find_overlaps(
         if (group.size() < 2) continue;
         // Sweep along the plane's u axis; compare within the active window
         const glm::dvec3 w = tris[group[0]].normal;
-        const auto [u, v] = plane_basis(w);
+        const auto [u, v] = visdb::orthonormal_basis(w);
         struct Item {
             double lo, hi, vlo, vhi;
             std::uint32_t index;

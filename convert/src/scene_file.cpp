@@ -28,6 +28,8 @@
 namespace abrad::convert {
 namespace {
 
+using visdb::luminance;
+
 using detail::located;
 
 // ---------------------------------------------------------------------------------------------
@@ -58,9 +60,6 @@ std::string name_list(const std::vector<std::string>& names, std::size_t shown =
     return s;
 }
 
-/// Rec. 709 luminance of a linear RGB triple.
-double luminance(const visdb::Rgb& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
-
 bool glob_match(const std::string& pattern, const std::string& name) {
     return ::fnmatch(pattern.c_str(), name.c_str(), FNM_CASEFOLD) == 0;
 }
@@ -68,8 +67,7 @@ bool glob_match(const std::string& pattern, const std::string& name) {
 double triangle_area(const visdb::TriangleMesh& mesh) {
     double area = 0.0;
     for (const auto& t : mesh.triangles) {
-        area += 0.5 * glm::length(glm::cross(mesh.positions[t.y] - mesh.positions[t.x],
-                                             mesh.positions[t.z] - mesh.positions[t.x]));
+        area += visdb::triangle_area(mesh.positions[t.x], mesh.positions[t.y], mesh.positions[t.z]);
     }
     return area;
 }

@@ -73,11 +73,9 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
     model.extensionsUsed.push_back("KHR_materials_unlit");
     model.buffers.emplace_back();
 
-    // The root node carries the mesh's rounded centre, in double; positions are relative to it
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()),
-        hi(-std::numeric_limits<double>::infinity());
-    for (const auto& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
-    const glm::dvec3 origin = lo.x <= hi.x ? glm::round(0.5 * (lo + hi)) : glm::dvec3(0.0);
+    // The root node carries the local origin (visdb::local_origin), in double; positions are
+    // relative to it
+    const glm::dvec3 origin = visdb::local_origin(mesh.positions);
 
     // Vertex attributes, shared by every surface's primitive
     const std::size_t n = mesh.positions.size();

@@ -81,17 +81,6 @@ std::string preamble(const std::filesystem::path& path, const PovView& view,
     return out;
 }
 
-/// The rounded centre of a set of points: vertices are written relative to it, so POV-Ray's
-/// single-precision mesh vertices keep millimetres at survey coordinates.
-template <typename Points>
-glm::dvec3 local_origin(const Points& points) {
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()),
-        hi(-std::numeric_limits<double>::infinity());
-    for (const glm::dvec3& p : points) lo = glm::min(lo, p), hi = glm::max(hi, p);
-    if (!(lo.x <= hi.x)) return glm::dvec3(0.0);
-    return glm::round(0.5 * (lo + hi));
-}
-
 }  // namespace
 
 void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
@@ -111,7 +100,9 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
     out +=
         "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 "
         "} }\n";
-    const glm::dvec3 origin = local_origin(mesh.positions);
+    // Vertices relative to the local origin (visdb::local_origin) and a translate: POV-Ray's
+    // single-precision mesh vertices keep millimetres at survey coordinates
+    const glm::dvec3 origin = visdb::local_origin(mesh.positions);
 
     // Group the triangles by surface: one mesh2 per surface
     std::vector<std::uint32_t> order(mesh.triangles.size());
@@ -240,7 +231,7 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
     std::vector<glm::dvec3> all;
     for (const auto& s : scene.surfaces)
         all.insert(all.end(), s.mesh.positions.begin(), s.mesh.positions.end());
-    const glm::dvec3 origin = local_origin(all);
+    const glm::dvec3 origin = visdb::local_origin(all);
 
     AtomicFile file(path);
     double emitting_area = 0.0;
@@ -269,9 +260,8 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
             out += ",\n    <" + std::to_string(t.x) + "," + std::to_string(t.z) + "," +
                    std::to_string(t.y) + ">";
             if (emitter) {
-                emitting_area +=
-                    0.5 * glm::length(glm::cross(s.mesh.positions[t.y] - s.mesh.positions[t.x],
-                                                 s.mesh.positions[t.z] - s.mesh.positions[t.x]));
+                emitting_area += visdb::triangle_area(s.mesh.positions[t.x], s.mesh.positions[t.y],
+                                                      s.mesh.positions[t.z]);
             }
         }
         out += " }\n  texture { Abrad_M" + std::to_string(s.material) + " }\n";

@@ -16,11 +16,7 @@ namespace {
 constexpr double kPercentileTarget = 0.8;
 constexpr double kPercentile = 0.95;
 
-/// Rec. 709 / sRGB relative luminance of a linear RGB triple.
-double luminance(const glm::vec3& c) {
-    return 0.2126 * static_cast<double>(c.r) + 0.7152 * static_cast<double>(c.g) +
-           0.0722 * static_cast<double>(c.b);
-}
+using visdb::luminance;
 
 /// 8-bit code of one channel: clamp the tone-mapped value, encode, round.
 std::uint8_t channel_byte(float radiosity, double exposure) {

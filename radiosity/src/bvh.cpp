@@ -7,6 +7,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <numeric>
+#include <utility>
 
 namespace abrad::radiosity {
 
@@ -57,19 +58,29 @@ Hull::Hull(std::span<const glm::dvec3> points) {
             }
 }
 
-Bvh::Bvh(std::span<const Patch> patches) {
-    m_boxes.resize(patches.size());
-    m_centres.resize(patches.size());
-    for (std::size_t i = 0; i < patches.size(); ++i) {
-        for (const auto& p : patches[i].p) m_boxes[i].grow(p);
-        m_centres[i] = 0.5 * (m_boxes[i].lo + m_boxes[i].hi);
-    }
-    m_order.resize(patches.size());
+namespace {
+
+std::vector<Box> boxes_of(std::span<const Patch> patches) {
+    std::vector<Box> boxes(patches.size());
+    for (std::size_t i = 0; i < patches.size(); ++i)
+        for (const auto& p : patches[i].p) boxes[i].grow(p);
+    return boxes;
+}
+
+}  // namespace
+
+Bvh::Bvh(std::span<const Patch> patches) : Bvh(boxes_of(patches)) {}
+
+Bvh::Bvh(std::vector<Box> boxes) : m_boxes(std::move(boxes)) {
+    const std::size_t n = m_boxes.size();
+    m_centres.resize(n);
+    for (std::size_t i = 0; i < n; ++i) m_centres[i] = 0.5 * (m_boxes[i].lo + m_boxes[i].hi);
+    m_order.resize(n);
     std::iota(m_order.begin(), m_order.end(), 0u);
-    if (!patches.empty()) {
-        m_nodes.reserve(2 * patches.size() / 4 + 2);
+    if (n > 0) {
+        m_nodes.reserve(2 * n / 4 + 2);
         m_nodes.emplace_back();
-        build(0, 0, static_cast<std::uint32_t>(patches.size()), 0);
+        build(0, 0, static_cast<std::uint32_t>(n), 0);
     }
 }
 
@@ -81,14 +92,15 @@ void Bvh::build(std::uint32_t self, std::uint32_t begin, std::uint32_t end, int 
         centres.grow(m_centres[m_order[i]]);
     }
     m_nodes[self].box = box;
-    // Depth is bounded so the query stack (64) never overflows
-    if (end - begin <= 4 || depth >= 48) {
+    // A leaf: few items, or centres that cannot be split (all the same); depth is bounded so
+    // the query stack (64) never overflows
+    const glm::dvec3 ext = centres.hi - centres.lo;
+    if (end - begin <= 4 || std::max({ext.x, ext.y, ext.z}) <= 0.0 || depth >= 48) {
         m_nodes[self].first = begin;
         m_nodes[self].count = end - begin;
         return;
     }
     // Split at the median of the longest axis of the centres; children are adjacent
-    const glm::dvec3 ext = centres.hi - centres.lo;
     const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
     const std::uint32_t mid = begin + (end - begin) / 2;
     std::nth_element(

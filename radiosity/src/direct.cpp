@@ -3,10 +3,11 @@
 #include "abrad/radiosity/direct.h"
 
 #include <cmath>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
-#include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/exact.h"
+#include "abrad/radiosity/stage.h"
 
 namespace abrad::radiosity {
 
@@ -16,14 +17,14 @@ std::vector<Patch> scene_patches(const visdb::Scene& scene, std::vector<visdb::R
     std::vector<Patch> patches;
     for (const visdb::Surface& s : scene.surfaces) {
         if (s.material >= scene.materials.size())
-            throw BakeError("surface '" + s.name + "' has no material " +
-                            std::to_string(s.material));
+            throw InputError("surface '" + s.name + "' has no material " +
+                             std::to_string(s.material));
         const visdb::Material& m = scene.materials[s.material];
         for (const glm::u32vec3& t : s.mesh.triangles) {
             const Patch p{
                 {s.mesh.positions.at(t.x), s.mesh.positions.at(t.y), s.mesh.positions.at(t.z)},
                 m.opacity};
-            const double area2 = glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]));
+            const double area2 = glm::length(cross_normal(p));
             if (!(area2 > 0.0) || !std::isfinite(area2))
                 continue;  // degenerate: sees and hides nothing
             patches.push_back(p);
@@ -38,22 +39,35 @@ std::vector<Patch> scene_patches(const visdb::Scene& scene, std::vector<visdb::R
 DirectField::DirectField(const visdb::Scene& scene)
     : m_patches(scene_patches(scene, m_emittance)), m_bvh(m_patches) {
     for (std::size_t i = 0; i < m_patches.size(); ++i)
-        if (m_emittance[i].x > 0.0 || m_emittance[i].y > 0.0 || m_emittance[i].z > 0.0)
-            m_lights.push_back(static_cast<std::uint32_t>(i));
+        if (visdb::any_positive(m_emittance[i])) m_lights.push_back(static_cast<std::uint32_t>(i));
     if (m_lights.empty())
-        throw BakeError("the scene has no light sources (no material with emittance > 0)");
+        throw InputError("the scene has no light sources (no material with emittance > 0)");
+}
+
+visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
+                            std::span<const std::uint32_t> lights, const Bvh& bvh,
+                            const glm::dvec3& x, const glm::dvec3& n,
+                            std::vector<const Patch*>& occ, double reach) {
+    visdb::Rgb h(0.0);
+    for (const std::uint32_t l : lights) {
+        const Patch& lp = patches[l];
+        // Behind the light's plane (it gives nothing), or beyond its reach (cull.h)
+        if (glm::dot(x - lp.p[0], cross_normal(lp)) <= 0.0) continue;
+        if (reach > 0.0) {
+            const glm::dvec3 d = glm::abs(x - centroid(lp));
+            if (d.x > reach || d.y > reach || d.z > reach) continue;
+        }
+        occ.clear();
+        for_each_shadow_candidate(bvh, patches, l, x,
+                                  [&](std::uint32_t id) { occ.push_back(&patches[id]); });
+        h += emittance[l] * visible_form_factor(x, n, lp, occ);
+    }
+    return h;
 }
 
 visdb::Rgb DirectField::irradiance(const glm::dvec3& x, const glm::dvec3& n) const {
-    visdb::Rgb h(0.0);
     std::vector<const Patch*> occluders;
-    for (const std::uint32_t l : m_lights) {
-        occluders.clear();
-        for_each_shadow_candidate(m_bvh, m_patches, l, x,
-                                  [&](std::uint32_t id) { occluders.push_back(&m_patches[id]); });
-        h += m_emittance[l] * visible_form_factor(x, n, m_patches[l], occluders);
-    }
-    return h;
+    return exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders);
 }
 
 }  // namespace abrad::radiosity

@@ -37,9 +37,13 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
+
+#include "abrad/radiosity/bvh.h"
+#include "abrad/visdb/model.h"
 
 namespace abrad::radiosity {
 namespace {
@@ -131,112 +135,6 @@ std::pair<double, double> closest_on_segment(const glm::dvec3& p, const glm::dve
 }
 
 // ---------------------------------------------------------------------------------------------
-// Bounding volume hierarchy over axis-aligned boxes (3D; 2D uses z = 0)
-
-struct Box {
-    glm::dvec3 lo{std::numeric_limits<double>::infinity()};
-    glm::dvec3 hi{-std::numeric_limits<double>::infinity()};
-    void add(const glm::dvec3& p) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    void add(const Box& b) {
-        lo = glm::min(lo, b.lo);
-        hi = glm::max(hi, b.hi);
-    }
-    void grow(double r) {
-        lo -= glm::dvec3(r);
-        hi += glm::dvec3(r);
-    }
-    bool overlaps(const Box& b) const {
-        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
-               lo.z <= b.hi.z && b.lo.z <= hi.z;
-    }
-};
-
-class Bvh {
-  public:
-    explicit Bvh(std::vector<Box> boxes) : m_boxes(std::move(boxes)) {
-        m_items.resize(m_boxes.size());
-        for (std::size_t i = 0; i < m_items.size(); ++i) m_items[i] = static_cast<std::uint32_t>(i);
-        if (!m_items.empty()) build(0, m_items.size());
-    }
-
-    /// Calls f(item) for every item whose box overlaps q.
-    template <class F>
-    void query(const Box& q, F&& f) const {
-        if (m_nodes.empty()) return;
-        std::uint32_t stack[64];
-        int top = 0;
-        stack[top++] = 0;
-        while (top > 0) {
-            const Node& n = m_nodes[stack[--top]];
-            if (!n.box.overlaps(q)) continue;
-            if (n.count > 0) {
-                for (std::uint32_t k = n.first; k < n.first + n.count; ++k)
-                    if (m_boxes[m_items[k]].overlaps(q)) f(m_items[k]);
-            } else {
-                stack[top++] = n.first;
-                stack[top++] = n.first + 1;
-            }
-        }
-    }
-
-  private:
-    struct Node {
-        Box box;
-        std::uint32_t first = 0;  ///< first item (leaf) or first child (inner)
-        std::uint32_t count = 0;  ///< items in a leaf, 0 for an inner node
-    };
-
-    void build(std::size_t first, std::size_t last) {
-        // Build breadth-first with an explicit work list so children are adjacent
-        struct Work {
-            std::size_t node, first, last;
-        };
-        m_nodes.push_back({});
-        std::vector<Work> work{{0, first, last}};
-        while (!work.empty()) {
-            const Work w = work.back();
-            work.pop_back();
-            Box box, centres;
-            for (std::size_t k = w.first; k < w.last; ++k) {
-                box.add(m_boxes[m_items[k]]);
-                centres.add(0.5 * (m_boxes[m_items[k]].lo + m_boxes[m_items[k]].hi));
-            }
-            m_nodes[w.node].box = box;
-            const std::size_t n = w.last - w.first;
-            const glm::dvec3 ext = centres.hi - centres.lo;
-            if (n <= 4 || std::max({ext.x, ext.y, ext.z}) <= 0.0) {
-                m_nodes[w.node].first = static_cast<std::uint32_t>(w.first);
-                m_nodes[w.node].count = static_cast<std::uint32_t>(n);
-                continue;
-            }
-            const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
-            const std::size_t mid = w.first + n / 2;
-            std::nth_element(m_items.begin() + static_cast<std::ptrdiff_t>(w.first),
-                             m_items.begin() + static_cast<std::ptrdiff_t>(mid),
-                             m_items.begin() + static_cast<std::ptrdiff_t>(w.last),
-                             [&](std::uint32_t a, std::uint32_t b) {
-                                 return m_boxes[a].lo[axis] + m_boxes[a].hi[axis] <
-                                        m_boxes[b].lo[axis] + m_boxes[b].hi[axis];
-                             });
-            const std::size_t child = m_nodes.size();
-            m_nodes.push_back({});
-            m_nodes.push_back({});
-            m_nodes[w.node].first = static_cast<std::uint32_t>(child);
-            m_nodes[w.node].count = 0;
-            work.push_back({child, w.first, mid});
-            work.push_back({child + 1, mid, w.last});
-        }
-    }
-
-    std::vector<Box> m_boxes;
-    std::vector<std::uint32_t> m_items;
-    std::vector<Node> m_nodes;
-};
-
-// ---------------------------------------------------------------------------------------------
 // Per-region data
 
 /// Orthonormal frame of a region's plane; (u, v, n) is right-handed.
@@ -249,13 +147,8 @@ struct Frame {
 Frame make_frame(const glm::dvec3& normal, const glm::dvec3& origin) {
     Frame f;
     f.n = glm::normalize(normal);
-    const glm::dvec3 a = glm::abs(f.n);
-    // Axis least aligned with n gives a well-conditioned cross product
-    const glm::dvec3 axis = a.x <= a.y && a.x <= a.z ? glm::dvec3(1, 0, 0)
-                            : a.y <= a.z             ? glm::dvec3(0, 1, 0)
-                                                     : glm::dvec3(0, 0, 1);
-    f.u = glm::normalize(glm::cross(axis, f.n));
-    f.v = glm::cross(f.n, f.u);
+    // The axis least aligned with n gives a well-conditioned cross product
+    std::tie(f.u, f.v) = visdb::orthonormal_basis(f.n);
     f.o = origin;
     return f;
 }
@@ -297,7 +190,7 @@ struct MeshRun {
 /// Spatially coherent insertion order (Morton order of quantised coordinates).
 std::vector<std::uint32_t> insertion_order(const std::vector<Vtx>& verts) {
     Box b;
-    for (const Vtx& v : verts) b.add(glm::dvec3(v.p.x, v.p.y, 0.0));
+    for (const Vtx& v : verts) b.grow(glm::dvec3(v.p.x, v.p.y, 0.0));
     const double ex = std::max(b.hi.x - b.lo.x, b.hi.y - b.lo.y);
     const double s = ex > 0.0 ? 65535.0 / ex : 0.0;
     auto spread = [](std::uint32_t x) {
@@ -646,7 +539,7 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
               static_cast<std::uint32_t>(i)};
         st.input_id.push_back(static_cast<std::uint32_t>(st.verts.size()));
         by_pos.try_emplace(key_of(x.pos), static_cast<std::uint32_t>(st.verts.size()));
-        bounds.add(glm::dvec3(x.p.x, x.p.y, 0.0));
+        bounds.grow(glm::dvec3(x.p.x, x.p.y, 0.0));
         st.verts.push_back(x);
     }
     const double scale = std::max(1e-300, glm::length(bounds.hi - bounds.lo));
@@ -674,22 +567,22 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
     for (const auto& e : setup.boundary) {
         Box b;
         for (std::uint32_t k : e)
-            b.add(glm::dvec3(st.verts[st.input_id[k]].p.x, st.verts[st.input_id[k]].p.y, 0.0));
-        b.grow(h);
+            b.grow(glm::dvec3(st.verts[st.input_id[k]].p.x, st.verts[st.input_id[k]].p.y, 0.0));
+        b.inflate(h);
         edge_boxes.push_back(b);
     }
     for (const auto& t : region.triangles) {
         Box b;
-        for (int k = 0; k < 3; ++k) b.add(glm::dvec3(st.verts[t[k]].p.x, st.verts[t[k]].p.y, 0.0));
-        b.grow(h);
+        for (int k = 0; k < 3; ++k) b.grow(glm::dvec3(st.verts[t[k]].p.x, st.verts[t[k]].p.y, 0.0));
+        b.inflate(h);
         tri_boxes.push_back(b);
     }
     const Bvh edge_bvh(std::move(edge_boxes)), tri_bvh(std::move(tri_boxes));
     auto box_around = [](Vec2 a, Vec2 b, double r) {
         Box q;
-        q.add(glm::dvec3(a.x, a.y, 0.0));
-        q.add(glm::dvec3(b.x, b.y, 0.0));
-        q.grow(r);
+        q.grow(glm::dvec3(a.x, a.y, 0.0));
+        q.grow(glm::dvec3(b.x, b.y, 0.0));
+        q.inflate(r);
         return q;
     };
 
@@ -824,7 +717,7 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
     // vertex at 1e-17 would otherwise leave a zero-area sliver with that vertex on its edge
     std::vector<Box> vertex_boxes(st.verts.size());
     for (std::size_t i = 0; i < st.verts.size(); ++i)
-        vertex_boxes[i].add(glm::dvec3(st.verts[i].p.x, st.verts[i].p.y, 0.0));
+        vertex_boxes[i].grow(glm::dvec3(st.verts[i].p.x, st.verts[i].p.y, 0.0));
     const Bvh vertex_bvh(std::move(vertex_boxes));
     std::vector<std::array<std::uint32_t, 2>> routed;
     seen_segments.clear();
@@ -920,8 +813,8 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
     for (std::size_t r = 0; r < n; ++r)
         for (std::size_t e = 0; e < setups[r].boundary.size(); ++e) {
             Box b;
-            for (std::uint32_t k : setups[r].boundary[e]) b.add(regions[r].positions[k]);
-            b.grow(h);
+            for (std::uint32_t k : setups[r].boundary[e]) b.grow(regions[r].positions[k]);
+            b.inflate(h);
             edges.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(e)});
             edge_boxes.push_back(b);
         }
@@ -929,7 +822,7 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
     // Calls f(region, edge) for every boundary edge p lies on (within h, away from its ends)
     auto edges_through = [&](const glm::dvec3& p, auto&& f) {
         Box q;
-        q.add(p);
+        q.grow(p);
         edge_bvh.query(q, [&](std::uint32_t k) {
             const EdgeRef ref = edges[k];
             const auto& be = setups[ref.region].boundary[ref.edge];

@@ -9,12 +9,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <memory>
 #include <mutex>
 #include <numeric>
+#include <string>
 
-#include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/hemicube.h"
 
 namespace abrad::radiosity {
@@ -23,8 +25,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double mean(const visdb::Rgb& c) { return (c.x + c.y + c.z) / 3.0; }
-bool emits(const visdb::Rgb& e) { return e.x > 0.0 || e.y > 0.0 || e.z > 0.0; }
+using visdb::channel_mean;
 
 // One entry of a form-factor row: the element, and the fraction of the shooter's power it
 // stops on its front (or, with kBack set, on its back, where it is absorbed).
@@ -48,10 +49,6 @@ struct Pieces {
     std::vector<std::uint32_t> element;
     std::vector<glm::dvec3> centroid;
 };
-
-double area_of(const Patch& p) {
-    return 0.5 * glm::length(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0]));
-}
 
 // Form factors from one shooting point onto the elements, fronts and backs apart, given the
 // hemicube's form factor of every piece.
@@ -131,212 +128,257 @@ visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const
 
 void validate(const IndirectOptions& o) {
     if (o.bounces < 0 || o.bounces > 1000)
-        throw BakeError("--bounces must be in [0, 1000], got " + std::to_string(o.bounces));
+        throw InputError("--bounces must be in [0, 1000], got " + std::to_string(o.bounces));
     if (!(o.converge > 0.0 && o.converge < 1.0))
-        throw BakeError("--converge must be in (0, 1), got " + std::to_string(o.converge));
+        throw InputError("--converge must be in (0, 1), got " + std::to_string(o.converge));
     if (!(o.element_size > 0.0 && std::isfinite(o.element_size)))
-        throw BakeError("--element-size must be > 0 metres, got " + std::to_string(o.element_size));
+        throw InputError("--element-size must be > 0 metres, got " +
+                         std::to_string(o.element_size));
     if (!(o.overrelaxation >= 1.0 && o.overrelaxation < 2.0))
-        throw BakeError("--overrelax must be in [1, 2), got " + std::to_string(o.overrelaxation));
+        throw InputError("--overrelax must be in [1, 2), got " + std::to_string(o.overrelaxation));
 }
 
-IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& options,
-                                const IndirectProgressFn& progress) {
-    validate(options);
-    const auto t_start = Clock::now();
-    const std::size_t nt = in.patches.size(), nr = in.region_normal.size();
-    IndirectSolution sol;
-    sol.element_size = options.element_size;
-    const double size = options.element_size;
+namespace {
+
+// Scratch per thread for folding piece form factors into element rows
+struct Scratch {
+    std::vector<double> front, back;
+    std::vector<std::uint32_t> touched;
+};
+
+// The solver's state: elements and their pieces, the rows computed so far, and the Southwell
+// unknowns (H received, B shot, r unshot = ρH − B). One method per step of solve_indirect.
+class Solver {
+  public:
+    Solver(const IndirectInput& in, const IndirectOptions& options, const ProgressFn& progress)
+        : m_in(in),
+          m_options(options),
+          m_progress(progress),
+          m_hemicube(options.resolution),
+          m_shoot{.method = options.method, .subpixels = options.subpixels, .occlusion = false},
+          m_region_normal(in.region_normal.begin(), in.region_normal.end()) {}
+
+    IndirectSolution run() {
+        m_sol.element_size = m_options.element_size;
+        make_grids();
+        make_elements();
+        m_scratch = std::make_unique<tbb::enumerable_thread_specific<Scratch>>([ne = m_ne] {
+            return Scratch{std::vector<double>(ne, 0.0), std::vector<double>(ne, 0.0), {}};
+        });
+        shoot_lights();
+        m_r.resize(m_ne);
+        m_B.assign(m_ne, visdb::Rgb(0.0));
+        for (std::size_t e = 0; e < m_ne; ++e) m_r[e] = m_sol.elements[e].reflectance * m_H[e];
+        m_rows.resize(m_ne);
+        double unshot = unshot_power();
+        record(unshot);
+        if (m_options.bounces > 0)
+            run_bounces(unshot);
+        else
+            run_southwell(unshot);
+        account_energy();
+        if (m_options.bounces == 0 && m_options.ambient && m_total_area > 0.0) add_ambient();
+        for (std::size_t e = 0; e < m_ne; ++e)
+            m_sol.elements[e].indirect = m_H[e] - m_sol.elements[e].direct;
+        for (const Row& row : m_rows) m_sol.rows_cached += row.known;
+        m_sol.seconds = seconds();
+        return std::move(m_sol);
+    }
+
+  private:
+    double seconds() const { return std::chrono::duration<double>(Clock::now() - m_start).count(); }
+
+    // Progress labels carry the unshot fraction
+    void progress(std::string_view stage, std::size_t done, std::size_t total, double unshot) {
+        if (!m_progress) return;
+        char text[96];
+        std::snprintf(text, sizeof text, "%.*s (unshot %.3g%%)", int(stage.size()), stage.data(),
+                      100.0 * unshot);
+        m_label = text;
+        m_progress(m_label, done, total);
+    }
 
     // Region grids: origin at a vertex of the region's first triangle, axes in its plane
-    sol.grids.resize(nr);
-    std::vector<char> grid_set(nr, 0);
-    for (std::size_t t = 0; t < nt; ++t) {
-        const std::uint32_t r = in.region[t];
-        if (grid_set[r]) continue;
-        grid_set[r] = 1;
-        const ShooterFrame f = ShooterFrame::at(in.patches[t].p[0], in.region_normal[r]);
-        sol.grids[r] = {f.origin, f.u, f.v};
+    void make_grids() {
+        const std::size_t nr = m_in.region_normal.size();
+        m_sol.grids.resize(nr);
+        std::vector<char> grid_set(nr, 0);
+        for (std::size_t t = 0; t < m_in.patches.size(); ++t) {
+            const std::uint32_t r = m_in.region[t];
+            if (grid_set[r]) continue;
+            grid_set[r] = 1;
+            const ShooterFrame f = ShooterFrame::at(m_in.patches[t].p[0], m_in.region_normal[r]);
+            m_sol.grids[r] = {f.origin, f.u, f.v};
+        }
     }
 
-    // Pieces and elements: triangles larger than a cell cut into n² similar pieces, each piece
-    // in the element of the cell holding its centroid
-    Pieces pieces;
-    std::vector<visdb::Rgb> rho_area;
-    auto element_of = [&](std::uint32_t r, const glm::dvec3& c) {
-        const auto& g = sol.grids[r];
+    // The element of the cell of region r holding point c (made when new)
+    std::uint32_t element_of(std::uint32_t r, const glm::dvec3& c) {
+        const double size = m_options.element_size;
+        const auto& g = m_sol.grids[r];
         const int i = static_cast<int>(std::floor(glm::dot(c - g.origin, g.u) / size));
         const int j = static_cast<int>(std::floor(glm::dot(c - g.origin, g.v) / size));
-        const auto [it, inserted] = sol.cell_element.try_emplace(
-            IndirectSolution::cell_key(r, i, j), static_cast<std::uint32_t>(sol.elements.size()));
+        const auto [it, inserted] = m_sol.cell_element.try_emplace(
+            IndirectSolution::cell_key(r, i, j), static_cast<std::uint32_t>(m_sol.elements.size()));
         if (inserted) {
-            sol.elements.push_back({.region = r, .cell = {i, j}});
-            rho_area.emplace_back(0.0);
+            m_sol.elements.push_back({.region = r, .cell = {i, j}});
+            m_rho_area.emplace_back(0.0);
         }
         return it->second;
-    };
-    for (std::size_t t = 0; t < nt; ++t) {
-        const Patch& p = in.patches[t];
-        double longest = 0.0;
-        for (int k = 0; k < 3; ++k)
-            longest = std::max(longest, glm::length(p.p[(k + 1) % 3] - p.p[k]));
-        const int n = static_cast<int>(std::clamp(std::ceil(longest / size), 1.0, 64.0));
-        const glm::dvec3 e1 = (p.p[1] - p.p[0]) / double(n), e2 = (p.p[2] - p.p[0]) / double(n);
-        auto at = [&](int i, int j) { return p.p[0] + double(i) * e1 + double(j) * e2; };
-        auto add = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-            const Patch piece{{a, b, c}, p.opacity};
-            const glm::dvec3 centroid = (a + b + c) / 3.0;
-            const std::uint32_t e = element_of(in.region[t], centroid);
-            const double area = area_of(piece);
-            auto& el = sol.elements[e];
-            el.area += area;
-            el.centroid += area * centroid;
-            rho_area[e] += area * in.reflectance[t];
-            pieces.patch.push_back(piece);
-            pieces.element.push_back(e);
-            pieces.centroid.push_back(centroid);
-        };
-        // Corner coordinates are whole multiples: a piece's corners are exact where n = 1
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; i + j < n; ++j) {
-                add(n == 1 ? p.p[0] : at(i, j), n == 1 ? p.p[1] : at(i + 1, j),
-                    n == 1 ? p.p[2] : at(i, j + 1));
-                if (i + j + 2 <= n) add(at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            }
     }
-    const std::size_t ne = sol.elements.size(), np = pieces.patch.size();
-    sol.pieces = np;
-    double total_area = 0.0;
-    for (std::size_t e = 0; e < ne; ++e) {
-        auto& el = sol.elements[e];
-        if (el.area > 0.0) {
-            el.centroid /= el.area;
-            el.reflectance = rho_area[e] / el.area;
+
+    void add_piece(std::size_t t, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+        const Patch piece{{a, b, c}, m_in.patches[t].opacity};
+        const glm::dvec3 mid = (a + b + c) / 3.0;
+        const std::uint32_t e = element_of(m_in.region[t], mid);
+        const double piece_area = area(piece);
+        auto& el = m_sol.elements[e];
+        el.area += piece_area;
+        el.centroid += piece_area * mid;
+        m_rho_area[e] += piece_area * m_in.reflectance[t];
+        m_pieces.patch.push_back(piece);
+        m_pieces.element.push_back(e);
+        m_pieces.centroid.push_back(mid);
+    }
+
+    // Pieces and elements: triangles larger than a cell cut into n² similar pieces, each
+    // piece in the element of the cell holding its centroid
+    void make_elements() {
+        for (std::size_t t = 0; t < m_in.patches.size(); ++t) {
+            const Patch& p = m_in.patches[t];
+            double longest = 0.0;
+            for (int k = 0; k < 3; ++k)
+                longest = std::max(longest, glm::length(p.p[(k + 1) % 3] - p.p[k]));
+            const int n = static_cast<int>(
+                std::clamp(std::ceil(longest / m_options.element_size), 1.0, 64.0));
+            const glm::dvec3 e1 = (p.p[1] - p.p[0]) / double(n), e2 = (p.p[2] - p.p[0]) / double(n);
+            auto at = [&](int i, int j) { return p.p[0] + double(i) * e1 + double(j) * e2; };
+            // Corner coordinates are whole multiples: a piece's corners are exact where n = 1
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; i + j < n; ++j) {
+                    add_piece(t, n == 1 ? p.p[0] : at(i, j), n == 1 ? p.p[1] : at(i + 1, j),
+                              n == 1 ? p.p[2] : at(i, j + 1));
+                    if (i + j + 2 <= n) add_piece(t, at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                }
         }
-        total_area += el.area;
+        m_ne = m_sol.elements.size();
+        m_sol.pieces = m_pieces.patch.size();
+        for (std::size_t e = 0; e < m_ne; ++e) {
+            auto& el = m_sol.elements[e];
+            if (el.area > 0.0) {
+                el.centroid /= el.area;
+                el.reflectance = m_rho_area[e] / el.area;
+            }
+            m_total_area += el.area;
+        }
     }
-    std::vector<glm::dvec3> region_normal(in.region_normal.begin(), in.region_normal.end());
-
-    const Hemicube hemicube(options.resolution);
-    const ShootOptions so{
-        .method = options.method, .subpixels = options.subpixels, .occlusion = false};
-
-    // Scratch per thread for folding piece form factors into element rows
-    struct Scratch {
-        std::vector<double> front, back;
-        std::vector<std::uint32_t> touched;
-    };
-    tbb::enumerable_thread_specific<Scratch> scratch([&] {
-        return Scratch{std::vector<double>(ne, 0.0), std::vector<double>(ne, 0.0), {}};
-    });
 
     // Direct light onto the elements: one hemicube per light triangle (the paper's shot)
-    std::vector<visdb::Rgb> H(ne, visdb::Rgb(0.0));
-    EnergyBalance& energy = sol.energy;
-    double back_absorbed = 0.0, escaped = 0.0;
-    std::mutex merge;
-    std::vector<std::uint32_t> lights;
-    for (std::size_t t = 0; t < nt; ++t)
-        if (emits(in.emittance[t])) lights.push_back(static_cast<std::uint32_t>(t));
-    if (lights.empty())
-        throw BakeError("the scene has no light sources (no material with emittance > 0)");
-    for (const std::uint32_t l : lights)
-        energy.emitted += mean(in.emittance[l]) * area_of(in.patches[l]);
-    if (progress) progress("interreflection: lights", 0, lights.size(), 1.0);
-    tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
-        const Patch& light = in.patches[lights[li]];
-        const ShooterFrame frame = frame_of(light);
-        const ShootResult shot = shoot(frame, pieces.patch, hemicube, so);
-        Scratch& s = scratch.local();
-        Row row;
-        fold_row(shot.form_factor, pieces, sol.elements, frame.origin, s.front, s.back, s.touched,
-                 row, region_normal);
-        const visdb::Rgb power = in.emittance[lights[li]] * area_of(light);
-        std::lock_guard lock(merge);
-        for (const Entry& x : row.entries) {
-            if (x.element & kBack) {
-                back_absorbed += mean(power) * x.ff;
-                continue;
+    void shoot_lights() {
+        m_H.assign(m_ne, visdb::Rgb(0.0));
+        std::vector<std::uint32_t> lights;
+        for (std::size_t t = 0; t < m_in.patches.size(); ++t)
+            if (visdb::any_positive(m_in.emittance[t]))
+                lights.push_back(static_cast<std::uint32_t>(t));
+        if (lights.empty())
+            throw InputError("the scene has no light sources (no material with emittance > 0)");
+        for (const std::uint32_t l : lights)
+            m_sol.energy.emitted += channel_mean(m_in.emittance[l]) * area(m_in.patches[l]);
+        progress("interreflection: lights", 0, lights.size(), 1.0);
+        std::mutex merge;
+        tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
+            const Patch& light = m_in.patches[lights[li]];
+            const ShooterFrame frame = frame_of(light);
+            const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
+            Scratch& s = m_scratch->local();
+            Row row;
+            fold_row(shot.form_factor, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
+                     s.touched, row, m_region_normal);
+            const visdb::Rgb power = m_in.emittance[lights[li]] * area(light);
+            std::lock_guard lock(merge);
+            for (const Entry& x : row.entries) {
+                if (x.element & kBack) {
+                    m_back_absorbed += channel_mean(power) * x.ff;
+                    continue;
+                }
+                m_H[x.element] += power * double(x.ff) / m_sol.elements[x.element].area;
             }
-            H[x.element] += power * double(x.ff) / sol.elements[x.element].area;
-        }
-        escaped += mean(power) * std::max(0.0, 1.0 - row.total);
-    });
-    for (std::size_t e = 0; e < ne; ++e) sol.elements[e].direct = H[e];
+            m_escaped += channel_mean(power) * std::max(0.0, 1.0 - row.total);
+        });
+        for (std::size_t e = 0; e < m_ne; ++e) m_sol.elements[e].direct = m_H[e];
+    }
 
-    // Southwell state: H received (front), B shot so far, r unshot = ρH − B
-    std::vector<visdb::Rgb> r(ne), B(ne, visdb::Rgb(0.0));
-    for (std::size_t e = 0; e < ne; ++e) r[e] = sol.elements[e].reflectance * H[e];
-    auto unshot_power = [&] {
+    double unshot_power() const {
         double u = 0.0;
-        for (std::size_t e = 0; e < ne; ++e) u += std::abs(mean(r[e])) * sol.elements[e].area;
+        for (std::size_t e = 0; e < m_ne; ++e)
+            u += std::abs(channel_mean(m_r[e])) * m_sol.elements[e].area;
         return u;
-    };
+    }
+
+    double power_of(std::uint32_t e) const {
+        return std::abs(channel_mean(m_r[e])) * m_sol.elements[e].area;
+    }
+
+    void record(double unshot) {
+        const double emitted = m_sol.energy.emitted;
+        m_sol.curve.push_back({m_sol.shots, seconds(), emitted > 0.0 ? unshot / emitted : 0.0});
+    }
 
     // Rows: computed in parallel batches when first needed, kept while the cache has room
-    std::vector<Row> rows(ne);
-    std::size_t cache_bytes = 0;
-    auto compute_rows = [&](const std::vector<std::uint32_t>& wanted) {
+    void compute_rows(const std::vector<std::uint32_t>& wanted) {
         std::vector<std::uint32_t> todo;
         for (const std::uint32_t e : wanted)
-            if (!rows[e].known) todo.push_back(e);
+            if (!m_rows[e].known) todo.push_back(e);
         tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t k) {
-            const auto& el = sol.elements[todo[k]];
-            const ShooterFrame frame = ShooterFrame::at(el.centroid, region_normal[el.region]);
-            const ShootResult shot = shoot(frame, pieces.patch, hemicube, so);
-            Scratch& s = scratch.local();
-            fold_row(shot.form_factor, pieces, sol.elements, frame.origin, s.front, s.back,
-                     s.touched, rows[todo[k]], region_normal);
+            const auto& el = m_sol.elements[todo[k]];
+            const ShooterFrame frame = ShooterFrame::at(el.centroid, m_region_normal[el.region]);
+            const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
+            Scratch& s = m_scratch->local();
+            fold_row(shot.form_factor, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
+                     s.touched, m_rows[todo[k]], m_region_normal);
         });
-        sol.rows_computed += todo.size();
+        m_sol.rows_computed += todo.size();
         for (const std::uint32_t e : todo)
-            cache_bytes += rows[e].entries.capacity() * sizeof(Entry);
-    };
-    auto release_rows = [&](const std::vector<std::uint32_t>& used) {
-        if (cache_bytes <= options.row_cache_bytes) return;
+            m_cache_bytes += m_rows[e].entries.capacity() * sizeof(Entry);
+    }
+
+    void release_rows(const std::vector<std::uint32_t>& used) {
+        if (m_cache_bytes <= m_options.row_cache_bytes) return;
         for (const std::uint32_t e : used) {
-            cache_bytes -= rows[e].entries.capacity() * sizeof(Entry);
-            rows[e] = Row{};
+            m_cache_bytes -= m_rows[e].entries.capacity() * sizeof(Entry);
+            m_rows[e] = Row{};
         }
-    };
+    }
+
     // Shoot `amount` (radiosity, RGB) from element i along its row
-    auto shoot_from = [&](std::uint32_t i, const visdb::Rgb& amount) {
-        const auto& el = sol.elements[i];
+    void shoot_from(std::uint32_t i, const visdb::Rgb& amount) {
+        const auto& el = m_sol.elements[i];
         const visdb::Rgb power = amount * el.area;
-        const Row& row = rows[i];
-        B[i] += amount;
-        r[i] -= amount;
+        const Row& row = m_rows[i];
+        m_B[i] += amount;
+        m_r[i] -= amount;
         for (const Entry& x : row.entries) {
             if (x.element & kBack) {
-                back_absorbed += mean(power) * x.ff;
+                m_back_absorbed += channel_mean(power) * x.ff;
                 continue;
             }
-            auto& rec = sol.elements[x.element];
+            auto& rec = m_sol.elements[x.element];
             const visdb::Rgb dh = power * double(x.ff) / rec.area;
-            H[x.element] += dh;
-            r[x.element] += rec.reflectance * dh;
+            m_H[x.element] += dh;
+            m_r[x.element] += rec.reflectance * dh;
         }
-        escaped += mean(power) * (1.0 - row.total);
-        ++sol.shots;
-    };
+        m_escaped += channel_mean(power) * (1.0 - row.total);
+        ++m_sol.shots;
+    }
 
-    const double emitted = energy.emitted;
-    auto record = [&](double unshot) {
-        sol.curve.push_back({sol.shots,
-                             std::chrono::duration<double>(Clock::now() - t_start).count(),
-                             emitted > 0.0 ? unshot / emitted : 0.0});
-    };
-    double unshot = unshot_power();
-    record(unshot);
-
-    if (options.bounces > 0) {
-        // Bounce k: every element shoots what it received in bounce k − 1 (a Jacobi sweep)
-        for (int bounce = 0; bounce < options.bounces; ++bounce) {
-            const std::vector<visdb::Rgb> pending = r;
+    // Bounce k: every element shoots what it received in bounce k − 1 (a Jacobi sweep)
+    void run_bounces(double unshot) {
+        const double emitted = m_sol.energy.emitted;
+        for (int bounce = 0; bounce < m_options.bounces; ++bounce) {
+            const std::vector<visdb::Rgb> pending = m_r;
             std::vector<std::uint32_t> shooters;
-            for (std::size_t e = 0; e < ne; ++e)
-                if (mean(glm::abs(pending[e])) > 0.0)
+            for (std::size_t e = 0; e < m_ne; ++e)
+                if (channel_mean(glm::abs(pending[e])) > 0.0)
                     shooters.push_back(static_cast<std::uint32_t>(e));
             if (shooters.empty()) break;
             // In slices, so that rows not kept in the cache are freed as we go
@@ -350,29 +392,28 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
                 for (const std::uint32_t i : part) shoot_from(i, pending[i]);
                 release_rows(part);
             }
-            ++sol.bounces_done;
+            ++m_sol.bounces_done;
             unshot = unshot_power();
             record(unshot);
-            if (progress)
-                progress("interreflection: bounce", std::size_t(bounce + 1),
-                         std::size_t(options.bounces), unshot / emitted);
+            progress("interreflection: bounce", std::size_t(bounce + 1),
+                     std::size_t(m_options.bounces), unshot / emitted);
         }
-    } else {
-        // Southwell: in rounds, the elements with the most unshot power first; each shoots ω
-        // times its unshot radiosity at the moment it shoots
-        const double target = options.converge * emitted;
-        std::vector<std::uint32_t> order(ne);
-        while (unshot > target && sol.shots < options.max_shots) {
+    }
+
+    // Southwell: in rounds, the elements with the most unshot power first; each shoots ω
+    // times its unshot radiosity at the moment it shoots
+    void run_southwell(double unshot) {
+        const double emitted = m_sol.energy.emitted;
+        const double target = m_options.converge * emitted;
+        std::vector<std::uint32_t> order(m_ne);
+        while (unshot > target && m_sol.shots < m_options.max_shots) {
             std::iota(order.begin(), order.end(), 0u);
-            auto power_of = [&](std::uint32_t e) {
-                return std::abs(mean(r[e])) * sol.elements[e].area;
-            };
             // The round: the fewest elements holding half of the unshot power, at least 16
             std::sort(order.begin(), order.end(),
                       [&](std::uint32_t a, std::uint32_t b) { return power_of(a) > power_of(b); });
             std::size_t m = 0;
             double held = 0.0;
-            while (m < ne && (held < 0.5 * unshot || m < 16) && power_of(order[m]) > 0.0)
+            while (m < m_ne && (held < 0.5 * unshot || m < 16) && power_of(order[m]) > 0.0)
                 held += power_of(order[m++]);
             if (m == 0) break;
             const std::vector<std::uint32_t> part(order.begin(),
@@ -380,46 +421,71 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
             compute_rows(part);
             for (const std::uint32_t i : part) {
                 if (power_of(i) <= 0.0) continue;
-                shoot_from(i, options.overrelaxation * r[i]);
+                shoot_from(i, m_options.overrelaxation * m_r[i]);
             }
             release_rows(part);
             unshot = unshot_power();
             record(unshot);
-            if (progress) progress("interreflection: shots", sol.shots, 0, unshot / emitted);
+            progress("interreflection: shots", m_sol.shots, 0, unshot / emitted);
         }
     }
 
     // Energy: emitted = Σ(1 − ρ)H·A + back + escaped + Σ r·A
-    for (std::size_t e = 0; e < ne; ++e) {
-        const auto& el = sol.elements[e];
-        energy.absorbed += mean((visdb::Rgb(1.0) - el.reflectance) * H[e]) * el.area;
-        energy.unshot += mean(r[e]) * el.area;
+    void account_energy() {
+        EnergyBalance& energy = m_sol.energy;
+        for (std::size_t e = 0; e < m_ne; ++e) {
+            const auto& el = m_sol.elements[e];
+            energy.absorbed += channel_mean((visdb::Rgb(1.0) - el.reflectance) * m_H[e]) * el.area;
+            energy.unshot += channel_mean(m_r[e]) * el.area;
+        }
+        energy.absorbed += m_back_absorbed;
+        energy.escaped = m_escaped;
     }
-    energy.absorbed += back_absorbed;
-    energy.escaped = escaped;
 
     // Ambient term: what is left unshot, spread evenly and reflected on through the average
     // reflectance; each element counts the part of its hemisphere that other elements fill
-    if (options.bounces == 0 && options.ambient && total_area > 0.0) {
+    void add_ambient() {
         visdb::Rgb first(0.0), rho_eff(0.0);
-        for (std::size_t e = 0; e < ne; ++e) {
-            const auto& el = sol.elements[e];
-            const double kept = rows[e].known ? rows[e].front : 1.0;
-            first += r[e] * el.area * kept;
+        for (std::size_t e = 0; e < m_ne; ++e) {
+            const auto& el = m_sol.elements[e];
+            const double kept = m_rows[e].known ? m_rows[e].front : 1.0;
+            first += m_r[e] * el.area * kept;
             rho_eff += el.reflectance * el.area * kept;
         }
-        rho_eff /= total_area;
+        rho_eff /= m_total_area;
         const visdb::Rgb amb =
-            first / total_area / glm::max(visdb::Rgb(1e-6), visdb::Rgb(1.0) - rho_eff);
-        sol.ambient_irradiance = amb;
-        for (std::size_t e = 0; e < ne; ++e) H[e] += amb;
-        energy.ambient = mean(amb) * total_area;
+            first / m_total_area / glm::max(visdb::Rgb(1e-6), visdb::Rgb(1.0) - rho_eff);
+        m_sol.ambient_irradiance = amb;
+        for (std::size_t e = 0; e < m_ne; ++e) m_H[e] += amb;
+        m_sol.energy.ambient = channel_mean(amb) * m_total_area;
     }
 
-    for (std::size_t e = 0; e < ne; ++e) sol.elements[e].indirect = H[e] - sol.elements[e].direct;
-    for (const Row& row : rows) sol.rows_cached += row.known;
-    sol.seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
-    return sol;
+    const IndirectInput& m_in;
+    const IndirectOptions& m_options;
+    const ProgressFn& m_progress;
+    const Clock::time_point m_start = Clock::now();
+    const Hemicube m_hemicube;
+    const ShootOptions m_shoot;
+    const std::vector<glm::dvec3> m_region_normal;
+    std::string m_label;
+    IndirectSolution m_sol;
+    Pieces m_pieces;
+    std::vector<visdb::Rgb> m_rho_area;
+    std::size_t m_ne = 0;
+    double m_total_area = 0.0;
+    std::unique_ptr<tbb::enumerable_thread_specific<Scratch>> m_scratch;
+    std::vector<visdb::Rgb> m_H, m_r, m_B;
+    std::vector<Row> m_rows;
+    std::size_t m_cache_bytes = 0;
+    double m_back_absorbed = 0.0, m_escaped = 0.0;
+};
+
+}  // namespace
+
+IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& options,
+                                const ProgressFn& progress) {
+    validate(options);
+    return Solver(in, options, progress).run();
 }
 
 }  // namespace abrad::radiosity
@@ -428,19 +494,14 @@ namespace abrad::radiosity {
 
 IndirectField::IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& mesh, int resolution)
     : m_hemicube(resolution) {
-    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
-    for (const glm::dvec3& p : mesh.positions) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    // Survey coordinates: work around the rounded centre, as the bake does
-    if (lo.x <= hi.x && glm::length(0.5 * (lo + hi)) >= 1e3) m_origin = glm::round(0.5 * (lo + hi));
+    // Survey coordinates: work in the local frame, as the bake does
+    m_origin = visdb::local_origin(mesh.positions);
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const glm::u32vec3 tri = mesh.triangles[t];
         const std::uint32_t s = mesh.triangle_surface[t];
         if (s >= scene.surfaces.size() || scene.surfaces[s].material >= scene.materials.size())
-            throw BakeError("bake triangle " + std::to_string(t) +
-                            " has no surface or material in the scene");
+            throw InputError("bake triangle " + std::to_string(t) +
+                             " has no surface or material in the scene");
         const visdb::Material& m = scene.materials[scene.surfaces[s].material];
         Patch p{{mesh.positions[tri.x] - m_origin, mesh.positions[tri.y] - m_origin,
                  mesh.positions[tri.z] - m_origin},

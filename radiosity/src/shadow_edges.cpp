@@ -365,8 +365,7 @@ bool fan_surrounds(const Context& c, const std::vector<VRec>& verts, std::size_t
                    std::size_t last, const dvec3& v, const dvec3& d) {
     const double twopi = 2.0 * std::numbers::pi, ang_tol = 1e-9;
     const dvec3 n = glm::normalize(d);
-    const dvec3 any = std::abs(n.x) < 0.6 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
-    const dvec3 e1 = glm::normalize(glm::cross(n, any)), e2 = glm::cross(n, e1);
+    const auto [e1, e2] = visdb::orthonormal_basis(n);
     std::vector<Span> arcs;
     for (std::size_t m = first; m < last; ++m) {
         const Patch& t = *c.occ[verts[m].tri];

@@ -375,14 +375,11 @@ void merge_occlusion(std::span<const M> masks, std::span<const std::uint32_t> pa
     }
 }
 
-template <int S>
-ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches,
-                       const Hemicube& hc, const ShootOptions& options) {
-    const bool abuffer = options.method == Visibility::ABuffer;
-    ShootResult result;
-    result.form_factor.assign(patches.size(), 0.0);
-
-    // Patches front to back (nearest corner first), so occlusion culling finds closed pixels
+// The patches to rasterize, front to back (nearest corner first), so occlusion culling finds
+// closed pixels.
+std::vector<std::pair<double, std::uint32_t>> front_to_back(const ShooterFrame& frame,
+                                                            std::span<const Patch> patches,
+                                                            const ShootOptions& options) {
     const std::size_t count = options.only ? options.only->size() : patches.size();
     std::vector<std::pair<double, std::uint32_t>> order_fb;
     order_fb.reserve(count);
@@ -395,20 +392,24 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
         order_fb.emplace_back(near, static_cast<std::uint32_t>(i));
     }
     std::sort(order_fb.begin(), order_fb.end());
+    return order_fb;
+}
 
-    // Occlusion culling: per pixel, the union of the coverage masks of opaque fragments and
-    // the deepest of their depths. Once the union is full, a fragment deeper than that depth
-    // gets nothing (PropFF sorts it behind them), so a piece whose nearest depth lies behind
-    // the closed depth of every pixel of its bounding rectangle is not rasterized. Form
-    // factors are unchanged. Only when no occlusion lists are asked for: Algorithm 2 lists
-    // hidden patches behind their occluders too.
-    const bool cull = !options.occlusion;
-    const std::size_t npix = hc.pixel_count();
-    std::vector<Mask<S>> covered(npix);
-    std::vector<float> closed_depth(npix, std::numeric_limits<float>::infinity());
-    std::vector<float> deepest(npix, 0.0f);
-    const Mask<S> full = Mask<S>::full();
-    auto hidden = [&](int face, const Poly2& p, double dmin) {
+// Occlusion culling: per pixel, the union of the coverage masks of opaque fragments and the
+// deepest of their depths. Once the union is full, a fragment deeper than that depth gets
+// nothing (PropFF sorts it behind them), so a piece whose nearest depth lies behind the closed
+// depth of every pixel of its bounding rectangle is not rasterized. Form factors are
+// unchanged.
+template <int S>
+class ClosedPixels {
+  public:
+    explicit ClosedPixels(std::size_t npix)
+        : m_covered(npix),
+          m_closed_depth(npix, std::numeric_limits<float>::infinity()),
+          m_deepest(npix, 0.0f) {}
+
+    // True when the piece `p` of `face`, no nearer than `dmin`, lies behind closed pixels only.
+    bool hidden(const Hemicube& hc, int face, const Poly2& p, double dmin) const {
         double x0 = p[0].x, x1 = p[0].x, y0 = p[0].y, y1 = p[0].y;
         for (const auto& v : p) {
             x0 = std::min(x0, v.x);
@@ -425,19 +426,47 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
         const std::size_t base = hc.face_offset(face);
         for (int j = j0; j < j1; ++j)
             for (int i = i0; i < i1; ++i)
-                if (!(closed_depth[base + static_cast<std::size_t>(j * W + i)] < d)) return false;
+                if (!(m_closed_depth[base + static_cast<std::size_t>(j * W + i)] < d)) return false;
         return true;
-    };
+    }
 
-    // Scan-convert every patch into fragments
+    // Adds the coverage of an opaque patch's fragments [first, end).
+    void add(const FragmentBuffer<S>& buffer, std::size_t first) {
+        const Mask<S> full = Mask<S>::full();
+        for (std::size_t f = first; f < buffer.fragments.size(); ++f) {
+            const Fragment<S>& frag = buffer.fragments[f];
+            float& cd = m_closed_depth[frag.pixel];
+            if (frag.fine != kNoPatch || !std::isinf(cd)) continue;  // no coarse samples, or closed
+            Mask<S>& m = m_covered[frag.pixel];
+            for (int w = 0; w < Mask<S>::kWords; ++w) m.w[w] |= frag.mask.w[w];
+            m_deepest[frag.pixel] = std::max(m_deepest[frag.pixel], frag.depth);
+            // Closed: every sample is behind an opaque fragment no deeper than _deepest_
+            if (std::equal(m.w, m.w + Mask<S>::kWords, full.w)) cd = m_deepest[frag.pixel];
+        }
+    }
+
+  private:
+    std::vector<Mask<S>> m_covered;
+    std::vector<float> m_closed_depth;
+    std::vector<float> m_deepest;
+};
+
+// Scan-converts every patch into fragments; culls pieces behind closed pixels when no
+// occlusion lists are asked for (Algorithm 2 lists hidden patches behind their occluders too).
+template <int S>
+FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch> patches,
+                               const Hemicube& hc, const ShootOptions& options,
+                               ShootResult& result) {
+    const bool cull = !options.occlusion;
+    ClosedPixels<S> closed(hc.pixel_count());
     FragmentBuffer<S> buffer;
-    for (const auto& [near, id] : order_fb) {
+    for (const auto& [near, id] : front_to_back(frame, patches, options)) {
         const glm::dvec3 local[3] = {frame.to_local(patches[id].p[0]),
                                      frame.to_local(patches[id].p[1]),
                                      frame.to_local(patches[id].p[2])};
         const bool opaque = patches[id].opacity >= 1.0;
         project_patch(hc, local, [&](int face, const Poly2& p, const DepthPlane& plane) {
-            if (cull && hidden(face, p, plane.fallback)) {
+            if (cull && closed.hidden(hc, face, p, plane.fallback)) {
                 ++result.hidden_pieces;
                 return;
             }
@@ -446,23 +475,23 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
                 rasterize_points(hc, face, p, plane, id, buffer);
             else
                 rasterize_abuffer<S>(hc, face, p, plane, id, buffer, result.undersampled_pixels);
-            if (!opaque) return;
-            for (std::size_t f = first; f < buffer.fragments.size(); ++f) {
-                const Fragment<S>& frag = buffer.fragments[f];
-                float& cd = closed_depth[frag.pixel];
-                if (frag.fine != kNoPatch || !std::isinf(cd))
-                    continue;  // no coarse samples, or closed
-                Mask<S>& m = covered[frag.pixel];
-                for (int w = 0; w < Mask<S>::kWords; ++w) m.w[w] |= frag.mask.w[w];
-                deepest[frag.pixel] = std::max(deepest[frag.pixel], frag.depth);
-                // Closed: every sample is behind an opaque fragment no deeper than _deepest_
-                if (std::equal(m.w, m.w + Mask<S>::kWords, full.w)) cd = deepest[frag.pixel];
-            }
+            if (opaque) closed.add(buffer, first);
         });
     }
     result.fragments = buffer.fragments.size();
+    return buffer;
+}
 
+// Per pixel, the depth-sorted fragment list: form factors propagated through it (PropFF) and,
+// when asked, its occlusion pairs (MergeOcclusionList), as (receiver << 32 | occluder) keys.
+template <int S>
+void resolve_pixels(const FragmentBuffer<S>& buffer, std::span<const Patch> patches,
+                    const Hemicube& hc, const ShootOptions& options, ShootResult& result,
+                    std::vector<std::uint64_t>& pairs,
+                    std::chrono::steady_clock::duration& occlusion_time) {
+    const bool abuffer = options.method == Visibility::ABuffer;
     // Bucket fragments by pixel (counting sort), then sort each list by depth
+    const std::size_t npix = hc.pixel_count();
     std::vector<std::uint32_t> start(npix + 1, 0);
     for (const auto& f : buffer.fragments) ++start[f.pixel + 1];
     for (std::size_t i = 0; i < npix; ++i) start[i + 1] += start[i];
@@ -473,8 +502,6 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
             order[fill[buffer.fragments[i].pixel]++] = static_cast<std::uint32_t>(i);
     }
 
-    std::vector<std::uint64_t> pairs;
-    std::chrono::steady_clock::duration occlusion_time{};
     std::vector<Mask<S>> masks;
     std::vector<Mask<2 * S>> fine_masks;
     std::vector<std::uint32_t> ids;
@@ -520,6 +547,17 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
             }
         }
     }
+}
+
+template <int S>
+ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches,
+                       const Hemicube& hc, const ShootOptions& options) {
+    ShootResult result;
+    result.form_factor.assign(patches.size(), 0.0);
+    const FragmentBuffer<S> buffer = scan_convert<S>(frame, patches, hc, options, result);
+    std::vector<std::uint64_t> pairs;
+    std::chrono::steady_clock::duration occlusion_time{};
+    resolve_pixels<S>(buffer, patches, hc, options, result, pairs, occlusion_time);
 
     // Deduplicate occlusion pairs
     const auto t_dedup = std::chrono::steady_clock::now();

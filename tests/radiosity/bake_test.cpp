@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <string>
+#include <vector>
 #include <glm/geometric.hpp>
 #include <numbers>
 
@@ -69,9 +72,7 @@ TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
     o.dm = false;
     const visdb::Scene scene = paper_scene(false);
     const visdb::Bake b = bake(scene, o);
-    double received = 0.0;
-    for (const auto& [k, v] : b.statistics)
-        if (k == "received_power_w") received = v;
+    const double received = b.statistics.received_power_w;
     // Power leaving the light that lands on the 2×2 floor: E · A_L · F(light→floor); with a
     // differential-area hemicube at each light triangle's centroid it is E·A·F(centroid→floor)
     const double mean_e = (10 + 20 + 5) / 3.0;
@@ -114,13 +115,73 @@ TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
 TEST(Bake, RejectsSceneWithoutLightsAndBadOptions) {
     visdb::Scene scene = paper_scene(false);
     scene.materials[1].emittance = {0, 0, 0};
-    EXPECT_THROW(bake(scene, BakeOptions{}), BakeError);
+    EXPECT_THROW(bake(scene, BakeOptions{}), InputError);
     BakeOptions o;
     o.resolution = 51;
-    EXPECT_THROW(bake(paper_scene(false), o), BakeError);
+    EXPECT_THROW(bake(paper_scene(false), o), InputError);
     o = {};
     o.subpixels = 5;
-    EXPECT_THROW(bake(paper_scene(false), o), BakeError);
+    EXPECT_THROW(bake(paper_scene(false), o), InputError);
+}
+
+// A setting the chosen method or mode does not use is an error naming it (pbrt-v4's
+// ReportUnused); the same setting where it is used, or a setting always used, is fine.
+TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
+    const auto message_of = [](const BakeOptions& o, const std::string& given) {
+        try {
+            check_unused(o, std::vector<std::string>{given});
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    BakeOptions o;  // direct light, A-buffer, DM with 4 refinement rounds
+    EXPECT_NE(message_of(o, "--converge").find("--converge"), std::string::npos);
+    EXPECT_NE(message_of(o, "--converge").find("--bounces converge"), std::string::npos);
+    EXPECT_NE(message_of(o, "--overrelax"), "");
+    EXPECT_NE(message_of(o, "--element-size"), "");
+    EXPECT_EQ(message_of(o, "--subpixels"), "");
+    EXPECT_EQ(message_of(o, "--lights"), "");
+    EXPECT_EQ(message_of(o, "--refine-tolerance"), "");
+    EXPECT_EQ(message_of(o, "--resolution"), "");  // always used
+    EXPECT_EQ(message_of(o, "--threads"), "");
+
+    o.bounces = -1;  // converge
+    EXPECT_EQ(message_of(o, "--converge"), "");
+    EXPECT_EQ(message_of(o, "--ambient"), "");
+    o.bounces = 3;  // Jacobi sweeps: the element grid is used, the convergence threshold is not
+    EXPECT_EQ(message_of(o, "--element-size"), "");
+    EXPECT_NE(message_of(o, "--converge"), "");
+
+    o = {};
+    o.method = Visibility::ZBuffer;
+    EXPECT_NE(message_of(o, "--subpixels").find("--method abuffer"), std::string::npos);
+    o = {};
+    o.dm = false;
+    for (const char* dm_only : {"--lights", "--dm-angle", "--refine-rounds", "--refine-tolerance",
+                                "--refine-min-edge"})
+        EXPECT_NE(message_of(o, dm_only).find(dm_only), std::string::npos) << dm_only;
+    o = {};
+    o.refine_rounds = 0;  // shadow edges only: no refinement tolerance to use
+    EXPECT_NE(message_of(o, "--refine-tolerance"), "");
+    EXPECT_EQ(message_of(o, "--refine-rounds"), "");
+}
+
+// The thread count only changes how the work is spread (a task arena): a one-thread bake gives
+// the all-core bake's field, to the float rounding of per-light sums taken in another order.
+TEST(Bake, ThreadCountIsTheBakesOwn) {
+    BakeOptions one;
+    one.threads = 1;
+    one.dm = false;
+    BakeOptions all = one;
+    all.threads = 0;
+    const visdb::Bake a = bake(paper_scene(false), one);
+    const visdb::Bake b = bake(paper_scene(false), all);
+    ASSERT_EQ(a.mesh.irradiance.size(), b.mesh.irradiance.size());
+    for (std::size_t v = 0; v < a.mesh.irradiance.size(); ++v)
+        for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(a.mesh.irradiance[v][c], b.mesh.irradiance[v][c],
+                        1e-6f * std::max(1.0f, b.mesh.irradiance[v][c]));
 }
 
 // Vertices are split where faces of one surface differ in normal, never shared across surfaces.
@@ -154,7 +215,7 @@ TEST(DirectField, AgreesWithExactBakeAtEveryVertex) {
     }
     visdb::Scene dark = scene;
     dark.materials[1].emittance = {0, 0, 0};
-    EXPECT_THROW(DirectField{dark}, BakeError);
+    EXPECT_THROW(DirectField{dark}, InputError);
 }
 
 // Coplanar faces share their vertices on a tilted plane too, where the normal is not exactly

@@ -122,16 +122,16 @@ TEST(DmBake, FieldErrorIsAFractionOfTheUnmeshedOne) {
 TEST(DmBake, RejectsBadRefinementOptions) {
     BakeOptions o;
     o.dm_min_angle = 25;
-    EXPECT_THROW(validate(o), BakeError);
+    EXPECT_THROW(validate(o), InputError);
     o = {};
     o.refine_rounds = -1;
-    EXPECT_THROW(validate(o), BakeError);
+    EXPECT_THROW(validate(o), InputError);
     o = {};
     o.refine_tolerance = 0;
-    EXPECT_THROW(validate(o), BakeError);
+    EXPECT_THROW(validate(o), InputError);
     o = {};
     o.refine_min_edge = -1;
-    EXPECT_THROW(validate(o), BakeError);
+    EXPECT_THROW(validate(o), InputError);
 }
 
 }  // namespace

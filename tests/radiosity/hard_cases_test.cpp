@@ -65,13 +65,6 @@ void expect_sane(const visdb::Bake& b) {
         }
 }
 
-double stat(const visdb::Bake& b, const std::string& key) {
-    for (const auto& [k, v] : b.statistics)
-        if (k == key) return v;
-    ADD_FAILURE() << "no statistic " << key;
-    return 0.0;
-}
-
 // Every vertex of `surface` (by index) at floor height satisfies `expected(x)` for G.
 template <typename Expected>
 int check_floor(const visdb::Bake& b, std::uint32_t surface, const glm::dvec3& origin,
@@ -142,7 +135,7 @@ TEST(HardCases, SliversAndNearZeroAreaTrianglesGetTheClosedForm) {
         o.shading = shading;
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
-        EXPECT_EQ(stat(b, "degenerate_skipped"), 1.0);
+        EXPECT_EQ(b.statistics.degenerate_skipped, 1u);
         if (shading == Shading::Exact) {
             const int n = check_floor(b, 2, glm::dvec3(0.0),
                                       [](const glm::dvec3& x) { return kGreen * ff_light(x); });
@@ -187,9 +180,9 @@ TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
         o.method = method;
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
-        EXPECT_NEAR(stat(b, "mean_form_factor_sum"), 1.0, 1e-9);
-        EXPECT_NEAR(stat(b, "received_power_w"), stat(b, "emitted_power_w"),
-                    1e-9 * stat(b, "emitted_power_w"));
+        EXPECT_NEAR(b.statistics.mean_form_factor_sum, 1.0, 1e-9);
+        EXPECT_NEAR(b.statistics.received_power_w, b.statistics.emitted_power_w,
+                    1e-9 * b.statistics.emitted_power_w);
     }
     BakeOptions exact = direct();  // DM on, exact shading
     const visdb::Bake b = bake(scene, exact);
@@ -327,7 +320,7 @@ TEST(HardCases, ManyNearlyCollinearShadowEdges) {
                                              b.mesh.positions[tri.z] - b.mesh.positions[tri.x]));
         }
     EXPECT_NEAR(floor_area, 4.0, 1e-9);
-    EXPECT_GT(stat(b, "triangles"), stat(b, "dm_triangles_before"));
+    EXPECT_GT(b.statistics.triangles, b.statistics.dm.value().triangles_before);
     const DirectField field(scene);
     int n = 0;
     for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t)
@@ -373,12 +366,13 @@ TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
     o.dm = false;
     const visdb::Bake b = bake(scene, o);
     expect_sane(b);
-    const double emitted = stat(b, "energy_emitted_w");
+    const double emitted = b.statistics.indirect.value().energy_emitted_w;
     EXPECT_GT(emitted, 0.0);
-    EXPECT_NEAR(
-        stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"),
-        emitted, 1e-6 * emitted);
-    EXPECT_LT(stat(b, "energy_escaped_w"), 1e-3 * emitted);
+    EXPECT_NEAR(b.statistics.indirect.value().energy_absorbed_w +
+                    b.statistics.indirect.value().energy_escaped_w +
+                    b.statistics.indirect.value().energy_unshot_w,
+                emitted, 1e-6 * emitted);
+    EXPECT_LT(b.statistics.indirect.value().energy_escaped_w, 1e-3 * emitted);
     // Mean radiosity over the box's inner area (4 + 4 + 4·3 m² = 20 m², light excluded): at
     // most the enclosure value (ΣE·A_L)/(A·(1 − ρ)) for the green channel
     double sum = 0.0, area = 0.0;

@@ -22,13 +22,6 @@ namespace {
 using abrad::testing::quad_grid;
 using testing::ff_parallel_rect;
 
-double stat(const visdb::Bake& b, const std::string& key) {
-    for (const auto& [k, v] : b.statistics)
-        if (k == key) return v;
-    ADD_FAILURE() << "no statistic " << key;
-    return 0.0;
-}
-
 // A quad surface whose front faces `inside`.
 visdb::Surface facing(const std::string& name, std::uint32_t material, glm::dvec3 o, glm::dvec3 u,
                       glm::dvec3 v, int n, glm::dvec3 inside) {
@@ -108,11 +101,12 @@ BakeOptions quick(int bounces) {
 }
 
 void expect_energy_balance(const visdb::Bake& b) {
-    const double emitted = stat(b, "energy_emitted_w");
+    const double emitted = b.statistics.indirect.value().energy_emitted_w;
     EXPECT_NEAR(emitted, 10.0, 1e-9);
-    EXPECT_NEAR(
-        stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w") + stat(b, "energy_unshot_w"),
-        emitted, 1e-3 * emitted);
+    EXPECT_NEAR(b.statistics.indirect.value().energy_absorbed_w +
+                    b.statistics.indirect.value().energy_escaped_w +
+                    b.statistics.indirect.value().energy_unshot_w,
+                emitted, 1e-3 * emitted);
 }
 
 TEST(Interreflection, UniformEnclosureMeanIrradianceIsPhiOverAOneMinusRho) {
@@ -125,8 +119,8 @@ TEST(Interreflection, UniformEnclosureMeanIrradianceIsPhiOverAOneMinusRho) {
         EXPECT_NEAR(mean, expected, 0.01 * expected) << "rho " << rho;
         expect_energy_balance(b);
         // Closed: what the hemicubes miss is rounding, not a leak
-        EXPECT_LT(stat(b, "energy_escaped_w"), 1e-3 * 10.0) << "rho " << rho;
-        EXPECT_LT(stat(b, "indirect_unshot_fraction"), 0.005);
+        EXPECT_LT(b.statistics.indirect.value().energy_escaped_w, 1e-3 * 10.0) << "rho " << rho;
+        EXPECT_LT(b.statistics.indirect.value().unshot_fraction, 0.005);
     }
 }
 
@@ -138,7 +132,7 @@ TEST(Interreflection, BounceByBounceInAClosedRoom) {
         const visdb::Bake b = bake(room({rho, rho, rho, rho}), quick(n));
         const double expected = 10.0 / 80.0 * (1.0 - std::pow(rho, n + 1)) / (1.0 - rho);
         EXPECT_NEAR(mean_irradiance(b), expected, 0.01 * expected) << n << " bounces";
-        EXPECT_EQ(stat(b, "indirect_bounces"), n);
+        EXPECT_EQ(double(b.statistics.indirect.value().bounces), n);
         expect_energy_balance(b);
     }
 }
@@ -159,7 +153,7 @@ TEST(Interreflection, EnergyBalanceWithAnOpening) {
     {
         const visdb::Bake b =
             bake(room({.floor = 0, .walls = 0, .ceiling = 0, .open_floor = true}), quick(-1));
-        const double escaped = stat(b, "energy_escaped_w");
+        const double escaped = b.statistics.indirect.value().energy_escaped_w;
         // The hemicube (R = 50, 8×8 masks) gives the walls' edges along the opening a little
         // too much coverage: 3.547 W escape against 3.577 W (−0.8%)
         const double expected = 10.0 * ff_parallel_rect(-2, 2, -2, 2, 3);
@@ -171,8 +165,11 @@ TEST(Interreflection, EnergyBalanceWithAnOpening) {
         BakeOptions o = quick(-1);
         o.converge = 1e-4;
         const visdb::Bake b = bake(room({.walls = 0.7, .ceiling = 0.8, .open_floor = true}), o);
-        EXPECT_GT(stat(b, "energy_escaped_w"), 10.0 * ff_parallel_rect(-2, 2, -2, 2, 3));
-        EXPECT_NEAR(stat(b, "energy_absorbed_w") + stat(b, "energy_escaped_w"), 10.0, 1e-3 * 10.0);
+        EXPECT_GT(b.statistics.indirect.value().energy_escaped_w,
+                  10.0 * ff_parallel_rect(-2, 2, -2, 2, 3));
+        EXPECT_NEAR(b.statistics.indirect.value().energy_absorbed_w +
+                        b.statistics.indirect.value().energy_escaped_w,
+                    10.0, 1e-3 * 10.0);
     }
 }
 

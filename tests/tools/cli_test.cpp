@@ -462,14 +462,10 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     EXPECT_GT(dm.mesh.positions.front().x, 2.4e6);  // stored at survey coordinates
     const abrad::visdb::Bake dm_o =
         abrad::visdb::Store::open(at_origin, abrad::visdb::OpenMode::ReadOnly).load_bake("dm");
-    const auto stat = [](const abrad::visdb::Bake& b, const std::string& key) {
-        for (const auto& [k, v] : b.statistics)
-            if (k == key) return v;
-        return -1.0;
-    };
     // The shadow edges are found in the bake's local frame: exactly the same ones
-    EXPECT_EQ(stat(dm, "dm_shadow_segments"), stat(dm_o, "dm_shadow_segments"));
-    EXPECT_GT(stat(dm, "dm_shadow_segments"), 100.0);
+    ASSERT_TRUE(dm.statistics.dm && dm_o.statistics.dm);
+    EXPECT_EQ(dm.statistics.dm->segments, dm_o.statistics.dm->segments);
+    EXPECT_GT(dm.statistics.dm->segments, 100u);
 }
 
 // Every file in ../shared/data (CAD models, meshes, broken files written by others) either
@@ -566,9 +562,7 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
     EXPECT_GT(scene.triangle_count(), 30000u);
     const abrad::visdb::Bake bake = store.load_bake("patch");
     EXPECT_EQ(bake.unit, "lux");
-    double emitted = 0.0;
-    for (const auto& [k, v] : bake.statistics)
-        if (k == "emitted_power_w") emitted = v;
+    const double emitted = bake.statistics.emitted_power_w;
     // Five white 3000 lm panels and a 1000 lm warm one (mean over RGB of its normalised colour)
     const double y = 0.2126 * 1.0 + 0.7152 * 0.93 + 0.0722 * 0.84;
     EXPECT_NEAR(emitted, 15000.0 + 1000.0 * (1.0 + 0.93 + 0.84) / 3.0 / y, 1e-3);
@@ -619,11 +613,8 @@ TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
     EXPECT_NEAR(hi.y - lo.y, 3.6138, 1e-3);
     EXPECT_EQ(hi.z, 0.0);
     EXPECT_EQ(lo.z, 0.0);
-    double emitted = 0.0, received = 0.0;
-    for (const auto& [k, v] : store.load_bake("dm").statistics) {
-        if (k == "emitted_power_w") emitted = v;
-        if (k == "received_power_w") received = v;
-    }
+    const abrad::visdb::BakeStats stats = store.load_bake("dm").statistics;
+    const double emitted = stats.emitted_power_w, received = stats.received_power_w;
     EXPECT_NEAR(emitted, 3600.0, 1e-6);
     EXPECT_GT(received, 0.03 * emitted);  // the faces face the panel (1.85 m² at 2.6 m)
     const glm::dvec3 e = probe_point(db, write("p.csv", "2.77,2.05,0.0,0,0,-1\n"));

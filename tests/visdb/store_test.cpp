@@ -261,14 +261,15 @@ void expect_same_bake(const visdb::Bake& expected, const visdb::Bake& actual) {
     EXPECT_EQ(expected.created_at, actual.created_at);
     EXPECT_EQ(expected.unit, actual.unit);
     EXPECT_EQ(expected.parameters, actual.parameters);
-    ASSERT_EQ(expected.statistics.size(), actual.statistics.size());
-    for (std::size_t i = 0; i < expected.statistics.size(); ++i) {
-        EXPECT_EQ(expected.statistics[i].first, actual.statistics[i].first);
-        if (std::isnan(expected.statistics[i].second)) {
-            EXPECT_TRUE(std::isnan(actual.statistics[i].second));
+    const auto want = visdb::to_pairs(expected.statistics);
+    const auto got = visdb::to_pairs(actual.statistics);
+    ASSERT_EQ(want.size(), got.size());
+    for (std::size_t i = 0; i < want.size(); ++i) {
+        EXPECT_EQ(want[i].first, got[i].first);
+        if (std::isnan(want[i].second)) {
+            EXPECT_TRUE(std::isnan(got[i].second)) << want[i].first;
         } else {
-            EXPECT_EQ(bits(expected.statistics[i].second), bits(actual.statistics[i].second))
-                << expected.statistics[i].first;
+            EXPECT_EQ(bits(want[i].second), bits(got[i].second)) << want[i].first;
         }
     }
     expect_same(expected.mesh.positions, actual.mesh.positions, "positions");
@@ -348,10 +349,13 @@ visdb::Bake make_bake(const std::string& name, std::size_t quads, float tint) {
     bake.unit = "lux";
     bake.parameters = {
         {"method", "abuffer"}, {"resolution", "50"}, {"bounces", "0"}, {"a_comes_last", name}};
-    bake.statistics = {{"seconds_total", 0.4},
-                       {"unshot_energy", 1.0 / 3.0},
-                       {"nan_is_kept", std::numeric_limits<double>::quiet_NaN()},
-                       {"big", 1e300}};
+    bake.statistics.seconds_total = 0.4;
+    bake.statistics.received_power_w = 1.0 / 3.0;
+    bake.statistics.emitted_power_w = std::numeric_limits<double>::quiet_NaN();  // NULL
+    bake.statistics.light_area_m2 = 1e300;
+    bake.statistics.triangles = 2 * quads;
+    bake.statistics.indirect.emplace().unshot_fraction = 0.004;
+    bake.statistics.other = {{"from_another_version", 2.5}};
     auto& m = bake.mesh;
     for (std::size_t q = 0; q < quads; ++q) {
         const double x = kEast + static_cast<double>(q) * 0.001;
@@ -463,7 +467,7 @@ TEST(Store, EmptyBakeMeshRoundTrips) {
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     visdb::Bake bake = make_bake("nothing", 0, 0.0f);
     bake.parameters.clear();
-    bake.statistics.clear();
+    bake.statistics = {};
     store.add_bake(bake);
     expect_same_bake(bake, store.load_bake("nothing"));
 }
@@ -486,10 +490,14 @@ TEST(Store, ListBakesSummarisesOldestFirst) {
         EXPECT_EQ(list[i].created_at, bakes[i].created_at);
         EXPECT_EQ(list[i].unit, bakes[i].unit);
         EXPECT_EQ(list[i].parameters, bakes[i].parameters);
-        ASSERT_EQ(list[i].statistics.size(), bakes[i].statistics.size());
-        EXPECT_EQ(list[i].statistics[0], bakes[i].statistics[0]);
-        EXPECT_EQ(list[i].statistics[1], bakes[i].statistics[1]);
-        EXPECT_TRUE(std::isnan(list[i].statistics[2].second));
+        EXPECT_EQ(list[i].statistics.seconds_total, bakes[i].statistics.seconds_total);
+        EXPECT_EQ(list[i].statistics.received_power_w, bakes[i].statistics.received_power_w);
+        EXPECT_TRUE(std::isnan(list[i].statistics.emitted_power_w));
+        EXPECT_EQ(list[i].statistics.triangles, bakes[i].statistics.triangles);
+        ASSERT_TRUE(list[i].statistics.indirect.has_value());
+        EXPECT_EQ(list[i].statistics.indirect->unshot_fraction, 0.004);
+        EXPECT_FALSE(list[i].statistics.dm.has_value());
+        EXPECT_EQ(list[i].statistics.other, bakes[i].statistics.other);
         EXPECT_EQ(list[i].vertex_count, bakes[i].mesh.positions.size());
         EXPECT_EQ(list[i].triangle_count, bakes[i].mesh.triangles.size());
     }
@@ -535,7 +543,9 @@ TEST(Store, SameNameReplacesBakeAndItsRows) {
                          std::to_string(old_id)),
               "i0");
     EXPECT_EQ(raw.scalar("SELECT count(*) FROM bake_meshes"), "i2");
-    EXPECT_EQ(raw.scalar("SELECT count(*) FROM bake_statistics"), "i8");
+    // Two bakes' statistics rows: every key of the groups they have, and the unknown one
+    const std::size_t rows = visdb::to_pairs(make_bake("x", 1, 0.0f).statistics).size();
+    EXPECT_EQ(raw.scalar("SELECT count(*) FROM bake_statistics"), "i" + std::to_string(2 * rows));
 }
 
 TEST(Store, UnknownBakeNameThrows) {
@@ -953,3 +963,45 @@ TEST(StoreKill, KilledMidBlobLeavesFileAsBefore) {
 }
 
 }  // namespace
+
+// The typed statistics: the stored keys of each group, a group present iff one of its keys
+// was stored, counts rounded, unknown keys kept in order.
+TEST(BakeStats, StoredFormRoundTripsGroupsAndUnknownKeys) {
+    visdb::BakeStats s;
+    s.triangles = 12;
+    s.dm.emplace().segments = 7;
+    s.dm->shadow.receivers = 3;
+    s.seconds_total = 1.5;
+    const auto pairs = visdb::to_pairs(s);
+    EXPECT_EQ(pairs.front().first, "triangles");
+    EXPECT_EQ(pairs.back().first, "seconds_total");
+    const auto has = [&](const std::string& key) {
+        return std::any_of(pairs.begin(), pairs.end(),
+                           [&](const auto& p) { return p.first == key; });
+    };
+    EXPECT_TRUE(has("dm_shadow_segments"));
+    EXPECT_TRUE(has("dm_shadow_receivers"));
+    EXPECT_FALSE(has("indirect_shots"));    // no interreflection group
+    EXPECT_FALSE(has("occluders_tested"));  // no exact-shading group
+
+    auto stored = pairs;
+    stored.emplace_back("a_key_of_tomorrow", 4.0);
+    for (auto& [k, v] : stored)
+        if (k == "triangles") v = 11.9999999;  // counts come back rounded
+    const visdb::BakeStats back = visdb::stats_from_pairs(stored);
+    EXPECT_EQ(back.triangles, 12u);
+    ASSERT_TRUE(back.dm.has_value());
+    EXPECT_EQ(back.dm->segments, 7u);
+    EXPECT_EQ(back.dm->shadow.receivers, 3u);
+    EXPECT_FALSE(back.indirect.has_value());
+    EXPECT_FALSE(back.exact_shade.has_value());
+    EXPECT_EQ(back.seconds_total, 1.5);
+    ASSERT_EQ(back.other.size(), 1u);
+    EXPECT_EQ(back.other[0].first, "a_key_of_tomorrow");
+
+    // One key of a group is enough for the group to be there
+    const visdb::BakeStats one = visdb::stats_from_pairs({{"indirect_shots", 5.0}});
+    ASSERT_TRUE(one.indirect.has_value());
+    EXPECT_EQ(one.indirect->shots, 5u);
+    EXPECT_FALSE(one.dm.has_value());
+}

@@ -104,12 +104,13 @@ std::string fmt(double v, int precision = 4) {
     return s.str();
 }
 
-// The bake's light triangle count and statistic by name.
-double stat_of(const std::vector<std::pair<std::string, double>>& stats, const std::string& key) {
-    for (const auto& [k, v] : stats)
-        if (k == key) return v;
-    return 0.0;
+// CPU seconds of the stages a bake ran (0 for those it did not run).
+double shade_cpu(const visdb::BakeStats& s) {
+    return s.exact_shade ? s.exact_shade->seconds_cpu : 0.0;
 }
+double edges_cpu(const visdb::BakeStats& s) { return s.dm ? s.dm->shadow.seconds_cpu : 0.0; }
+double mesh_seconds(const visdb::BakeStats& s) { return s.dm ? s.dm->seconds_mesh : 0.0; }
+double dm_seconds(const visdb::BakeStats& s) { return s.dm ? s.dm->seconds : 0.0; }
 
 // Runs a program without a shell; returns its exit status, or -1 when it could not start.
 int run_program(const std::vector<std::string>& args) {
@@ -137,12 +138,13 @@ std::string csv_row(const BenchRun& r) {
       << (o.method == Visibility::ABuffer ? o.subpixels : 1) << ',' << (o.dm ? "on" : "off") << ','
       << (o.dm ? radiosity::to_string(o.lights) : std::string("-")) << ','
       << radiosity::to_string(o.shading) << ',' << r.triangles_out << ',' << fmt(r.seconds_wall, 6)
-      << ',' << fmt(r.stat("seconds_shoot_cpu"), 6) << ','
-      << fmt(r.stat("seconds_occlusion_cpu"), 6) << ',' << fmt(r.stat("seconds_shade_cpu"), 6)
-      << ',' << fmt(r.stat("seconds_shadow_edges_cpu"), 6) << ',' << fmt(r.stat("seconds_mesh"), 6)
-      << ',' << fmt(r.stat("seconds_dm"), 6) << ',' << fmt(r.seconds_store, 6) << ','
+      << ',' << fmt(r.statistics.shoot.seconds_cpu, 6) << ','
+      << fmt(r.statistics.shoot.seconds_occlusion_cpu, 6) << ',' << fmt(shade_cpu(r.statistics), 6)
+      << ',' << fmt(edges_cpu(r.statistics), 6) << ',' << fmt(mesh_seconds(r.statistics), 6) << ','
+      << fmt(dm_seconds(r.statistics), 6) << ',' << fmt(r.seconds_store, 6) << ','
       << fmt(r.peak_rss_mb, 6) << ',' << fmt(r.ff_error, 6) << ',' << fmt(r.field_error, 6) << ','
-      << fmt(r.stat("mean_form_factor_sum"), 9) << ',' << r.stat("occluders_tested");
+      << fmt(r.statistics.mean_form_factor_sum, 9) << ','
+      << (r.statistics.exact_shade ? r.statistics.exact_shade->occluders_tested : 0);
     return s.str();
 }
 
@@ -173,7 +175,7 @@ BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions
     r.peak_rss_mb = peak.stop();
     r.statistics = b.statistics;
     r.triangles_out = b.mesh.triangles.size();
-    r.light_triangles = static_cast<std::size_t>(stat_of(b.statistics, "light_triangles"));
+    r.light_triangles = b.statistics.light_triangles;
 
     // Form-factor error of the hemicube setting (cached: it does not depend on the scene)
     const int sub = options.method == Visibility::ABuffer ? options.subpixels : 1;
@@ -388,11 +390,10 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
         for (const BenchRun* r : rs)
             md << "| " << r->scene << " | " << r->triangles_in << " | " << r->light_triangles
                << " | " << r->triangles_out << " | " << fmt(r->seconds_wall, 3) << " | "
-               << fmt(r->stat("seconds_shoot_cpu"), 3) << " | "
-               << fmt(r->stat("seconds_shade_cpu"), 3) << " | "
-               << fmt(r->stat("seconds_shadow_edges_cpu"), 3) << " | "
-               << fmt(r->stat("seconds_mesh"), 3) << " | " << fmt(r->seconds_store, 3) << " | "
-               << fmt(r->peak_rss_mb, 4) << " | "
+               << fmt(r->statistics.shoot.seconds_cpu, 3) << " | "
+               << fmt(shade_cpu(r->statistics), 3) << " | " << fmt(edges_cpu(r->statistics), 3)
+               << " | " << fmt(mesh_seconds(r->statistics), 3) << " | " << fmt(r->seconds_store, 3)
+               << " | " << fmt(r->peak_rss_mb, 4) << " | "
                << (r->field_error >= 0.0 ? fmt(r->field_error, 3) : std::string("-")) << " |\n";
         md << "\n";
     }
@@ -400,8 +401,6 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
 }
 
 }  // namespace
-
-double BenchRun::stat(const std::string& key) const { return stat_of(statistics, key); }
 
 std::string label(const BakeOptions& o) {
     std::string s = radiosity::to_string(o.method) + " R" + std::to_string(o.resolution);

@@ -920,7 +920,7 @@ std::int64_t Store::add_bake(const Bake& bake, const std::function<void(double)>
                              "INSERT INTO bake_statistics(bake_id, seq, key, value) "
                              "VALUES (?1, ?2, ?3, ?4)");
             std::int64_t seq = 0;
-            for (const auto& [key, value] : bake.statistics) {
+            for (const auto& [key, value] : to_pairs(bake.statistics)) {
                 insert.bind(1, id);
                 insert.bind(2, seq++);
                 insert.bind(3, key);
@@ -1017,12 +1017,15 @@ std::vector<BakeSummary> Store::list_bakes() const {
     }
     {
         Statement q(c, "SELECT bake_id, key, value FROM bake_statistics ORDER BY bake_id, seq");
+        std::vector<std::vector<std::pair<std::string, double>>> stored(bakes.size());
         while (q.step()) {
             const auto it = index.find(q.int64(0));
             const double value =
                 q.is_null(2) ? std::numeric_limits<double>::quiet_NaN() : q.real(2);
-            if (it != index.end()) bakes[it->second].statistics.emplace_back(q.text(1), value);
+            if (it != index.end()) stored[it->second].emplace_back(q.text(1), value);
         }
+        for (std::size_t i = 0; i < bakes.size(); ++i)
+            bakes[i].statistics = stats_from_pairs(stored[i]);
     }
     transaction.commit();
     return bakes;
@@ -1057,10 +1060,12 @@ Bake Store::load_bake(const std::string& name) const {
     {
         Statement q(c, "SELECT key, value FROM bake_statistics WHERE bake_id = ?1 ORDER BY seq");
         q.bind(1, bake.id);
+        std::vector<std::pair<std::string, double>> stored;
         while (q.step()) {
-            bake.statistics.emplace_back(
+            stored.emplace_back(
                 q.text(0), q.is_null(1) ? std::numeric_limits<double>::quiet_NaN() : q.real(1));
         }
+        bake.statistics = stats_from_pairs(stored);
     }
 
     // Load and check the mesh

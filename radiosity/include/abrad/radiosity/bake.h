@@ -1,11 +1,35 @@
 #pragma once
 // The bake: one shooting iteration per light-source triangle with the A-buffer (or Z-buffer)
-// hemicube, then a radiosity value at every vertex (Wang et al., "Using A-Buffer in
-// Radiosity", section 3.5).
+// hemicube (Wang et al., "Using A-Buffer in Radiosity"), discontinuity meshing along the
+// shadow edges, interreflection when asked, and a radiosity value at every vertex
+// (docs/algorithms.md#overview-of-a-bake).
+//
+// The bake is a pipeline of named stages (radiosity/src/stages.h, one file each), run in this
+// order by `bake`:
+//
+//   build bake mesh → shoot the lights (irradiance, occlusion lists, shadow segments)
+//     → discontinuity mesh → interreflection → shade vertices → statistics
+//
+// Common principles of the stages (as OpenImageIO states its own for its algorithms):
+// - Shape: `Out stage(const In&, const Options&, visdb::BakeStats*, const ProgressFn&)`. A
+//   stage takes its input by const reference (a stage that refines its input in place, the
+//   discontinuity mesher adding points to the regions, says so) and returns its output by
+//   value; nothing is shared between stages but what they return.
+// - Units: metres, W/m² (or lm/m² and lux for photometric scenes), radiometric RGB; positions
+//   in double, in the bake's local frame (visdb::local_origin), hemicube depths in float.
+// - Failure: bad settings or a scene that cannot be baked throw InputError (stage.h) naming
+//   the option or the scene element, before any work where possible; anything else that
+//   throws (std::bad_alloc...) is a failure, not the input's fault. A stage never exits.
+// - Statistics: each stage fills its own named fields of visdb::BakeStats (bake_stats.h);
+//   counters of parallel work are summed per thread and added with `operator+=`. Times are
+//   wall seconds, or CPU seconds summed over threads where the name says `_cpu`.
+// - Progress: ProgressFn(stage label, done, total), from the stage's thread or under its
+//   lock; `total` 0 when the end is not known in advance.
+// - Threads: TBB, inside the task arena the caller's `threads` setting makes; a stage sets no
+//   process-wide state.
 
 #include <cstddef>
-#include <functional>
-#include <stdexcept>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -13,6 +37,7 @@
 #include "abrad/radiosity/indirect.h"
 #include "abrad/radiosity/shadow_edges.h"
 #include "abrad/radiosity/shoot.h"
+#include "abrad/radiosity/stage.h"
 #include "abrad/visdb/model.h"
 
 namespace abrad::radiosity {
@@ -56,28 +81,27 @@ struct BakeOptions {
     double refine_min_edge = 0.05;  ///< edges shorter than this (metres) are not split
 };
 
-/// Bad bake settings or a scene that cannot be baked (no lights...): the caller exits 2.
-class BakeError : public std::runtime_error {
-  public:
-    using std::runtime_error::runtime_error;
-};
-
-/// Progress of a long bake: a stage name and `done` of `total` units.
-using ProgressFn = std::function<void(std::string_view stage, std::size_t done, std::size_t total)>;
-
 /// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces in [-1, 1000],
 /// converge in (0, 1), element_size > 0, overrelaxation in [1, 2), threads >= 0,
 /// reach >= 0,
 /// dm_min_angle in [0, 20.7], refine_rounds in [0, 20], refine_tolerance > 0,
-/// refine_min_edge > 0); throws BakeError naming the option and value.
+/// refine_min_edge > 0); throws InputError naming the option and value.
 void validate(const BakeOptions& options);
+
+/// pbrt-v4's ReportUnused for the bake: throws InputError naming the first of `given` (the
+/// settings the user gave, by command-line name: "--converge", "--subpixels"...) that
+/// `options` does not use, e.g. `--converge` with `--bounces 0`, `--lights` or `--refine-*`
+/// with `--dm off`, `--subpixels` with `--method zbuffer`. Names this function does not
+/// know are ignored (they are always used).
+void check_unused(const BakeOptions& options, std::span<const std::string> given);
 
 /// Bakes direct light into `scene`, then (bounces != 0) interreflection: the indirect part,
 /// interpolated from the element solution, is added to every vertex's direct value. Without
 /// discontinuity meshing the result's mesh is the scene's, with one vertex per (surface,
 /// position, face normal); with it, each planar region is re-meshed (conforming: no
 /// T-vertices) and every vertex, old and new, is shaded by the shading mode. Parameters and
-/// statistics are filled, `name` is options.name.
+/// statistics are filled, `name` is options.name. Runs its parallel work in a TBB task arena
+/// of `options.threads` threads (0: all cores). Throws InputError (stage.h).
 visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
                  const ProgressFn& progress = {});
 

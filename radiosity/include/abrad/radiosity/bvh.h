@@ -1,6 +1,8 @@
 #pragma once
-// A bounding-volume hierarchy of axis-aligned boxes over triangles, for conservative
-// "which patches can lie in this region" queries (median split on the longest axis).
+// A bounding-volume hierarchy of axis-aligned boxes, for conservative "which items can lie in
+// this region" queries (median split on the longest axis of the box centres): the one BVH of
+// abrad, over the bake's patches (shadow candidates, culling) and over the mesher's edges,
+// triangles and points (dm_mesh.cpp).
 
 #include <array>
 #include <cstdint>
@@ -8,7 +10,7 @@
 #include <span>
 #include <vector>
 
-#include "abrad/radiosity/shoot.h"
+#include "abrad/radiosity/geometry.h"
 
 namespace abrad::radiosity {
 
@@ -17,6 +19,11 @@ struct Box {
     glm::dvec3 lo{1e300}, hi{-1e300};
     void grow(const glm::dvec3& p);
     void grow(const Box& b);
+    /// Pushes every face out by `r` metres.
+    void inflate(double r) {
+        lo -= glm::dvec3(r);
+        hi += glm::dvec3(r);
+    }
     bool overlaps(const Box& b) const {
         return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
                lo.z <= b.hi.z && b.lo.z <= hi.z;
@@ -55,10 +62,13 @@ class Hull {
     int m_count = 0;
 };
 
-/// A static BVH over patches; leaves hold up to 4 patches.
+/// A static BVH over boxes; leaves hold up to 4 items (or items whose box centres coincide).
 class Bvh {
   public:
+    /// Over the patches' bounding boxes: items are patch indices.
     explicit Bvh(std::span<const Patch> patches);
+    /// Over `boxes`: items are indices into it.
+    explicit Bvh(std::vector<Box> boxes);
 
     /// Calls `visit(patch_index)` for every patch whose box overlaps `query`.
     template <typename Visit>

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "abrad/radiosity/bvh.h"
-#include "abrad/radiosity/shoot.h"
+#include "abrad/radiosity/geometry.h"
 #include "abrad/visdb/model.h"
 
 namespace abrad::radiosity {
@@ -27,9 +27,19 @@ void for_each_shadow_candidate(const Bvh& bvh, std::span<const Patch> patches, s
     });
 }
 
+/// Exact direct irradiance H (W/m², RGB) at `x` on a surface with unit normal `n` (its front)
+/// from the light triangles patches[l], l in `lights`, each of emittance emittance[l], past
+/// every occluder the BVH (built over `patches`) can place between x and the light. Lights
+/// whose plane x is not in front of give nothing; with `reach` > 0 metres, lights whose
+/// centroid is farther than `reach` along some axis are skipped (cull.h). `occ` is scratch.
+visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
+                            std::span<const std::uint32_t> lights, const Bvh& bvh,
+                            const glm::dvec3& x, const glm::dvec3& n,
+                            std::vector<const Patch*>& occ, double reach = 0.0);
+
 class DirectField {
   public:
-    /// Prepares the scene's triangles; throws BakeError when the scene has no light.
+    /// Prepares the scene's triangles; throws InputError when the scene has no light.
     explicit DirectField(const visdb::Scene& scene);
 
     /// Irradiance H (W/m², RGB) at `x` on a surface with unit normal `n` (its front).

@@ -1,8 +1,8 @@
 #pragma once
-// Discontinuity meshing of planar regions (ALGORITHMS.md section 6): a constrained Delaunay
-// triangulation (CGAL) of each planar region with its boundary and the shadow edges as
-// constraints, exact predicates and exact intersections where constraints cross, optional
-// Ruppert/Chew refinement, and conforming boundaries between regions (no T-vertices).
+// Discontinuity meshing of planar regions (docs/algorithms.md#discontinuity-meshing): a
+// constrained Delaunay triangulation (CGAL) of each planar region with its boundary and the
+// shadow edges as constraints, exact predicates and exact intersections where constraints cross,
+// optional Ruppert/Chew refinement, and conforming boundaries between regions (no T-vertices).
 //
 // The header holds plain structs only: CGAL stays inside one translation unit
 // (src/dm_mesh.cpp, its own static library built with -O2 and CGAL_NDEBUG).

@@ -25,6 +25,7 @@
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/hemicube.h"
 #include "abrad/radiosity/shoot.h"
+#include "abrad/radiosity/stage.h"
 #include "abrad/visdb/model.h"
 
 namespace abrad::radiosity {
@@ -114,18 +115,16 @@ struct IndirectSolution {
     static std::uint64_t cell_key(std::uint32_t region, int i, int j);
 };
 
-using IndirectProgressFn = std::function<void(std::string_view stage, std::size_t done,
-                                              std::size_t total, double unshot_fraction)>;
-
 /// Checks options (bounces in [0, 1000], converge in (0, 1), element_size > 0,
-/// overrelaxation in [1, 2)); throws BakeError naming the option.
+/// overrelaxation in [1, 2)); throws InputError naming the option.
 void validate(const IndirectOptions& options);
 
 /// Solves the interreflection of `input`: shoots once from every light triangle onto the
 /// elements, then from the elements until `bounces` bounces are done or the unshot fraction
-/// is below `converge`. Throws BakeError when there is no light.
+/// is below `converge`. Throws InputError when there is no light. Progress labels carry the
+/// unshot fraction: "interreflection: shots (unshot 1.2%)".
 IndirectSolution solve_indirect(const IndirectInput& input, const IndirectOptions& options,
-                                const IndirectProgressFn& progress = {});
+                                const ProgressFn& progress = {});
 
 }  // namespace abrad::radiosity
 
@@ -166,7 +165,7 @@ struct ProbePoint {
 class PointIrradiance {
   public:
     /// `bake` may be null (direct light only); a bake with parameter bounces = 0 adds nothing.
-    /// Throws BakeError when the scene has no light.
+    /// Throws InputError when the scene has no light.
     PointIrradiance(const visdb::Scene& scene, const visdb::Bake* bake);
 
     /// Irradiance at every point (in parallel), RGB, in the bake's unit.

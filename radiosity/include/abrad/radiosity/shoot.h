@@ -12,15 +12,10 @@
 #include <string>
 #include <vector>
 
+#include "abrad/radiosity/geometry.h"
 #include "abrad/radiosity/hemicube.h"
 
 namespace abrad::radiosity {
-
-/// A triangle seen by the hemicube: world coordinates (metres) and opacity α in [0,1].
-struct Patch {
-    glm::dvec3 p[3];
-    double opacity = 1.0;
-};
 
 /// Visibility method of the hemicube.
 enum class Visibility {
@@ -33,13 +28,11 @@ struct ShootOptions {
     int subpixels = 8;      ///< A-buffer mask side S: 4, 8 or 16 (fine masks are 2S)
     bool occlusion = true;  ///< also build occlusion lists (Algorithm 2)
     /// Patch index the shooter belongs to (never rasterized), or kNoPatch.
-    std::uint32_t exclude = std::numeric_limits<std::uint32_t>::max();
+    std::uint32_t exclude = kNoPatch;
     /// When set, only these patch indices are rasterized (the rest get form factor 0): the
     /// patches a light can reach (cull.h). Not owned; must outlive the call.
     const std::vector<std::uint32_t>* only = nullptr;
 };
-
-inline constexpr std::uint32_t kNoPatch = std::numeric_limits<std::uint32_t>::max();
 
 /// One occlusion relation: `occluder` is in front of `receiver` along some hemicube ray.
 struct OcclusionPair {
@@ -67,8 +60,7 @@ struct ShootResult {
 
 /// The hemicube frame of a patch: at its centroid, around its front (counter-clockwise) normal.
 inline ShooterFrame frame_of(const Patch& p) {
-    return ShooterFrame::at((p.p[0] + p.p[1] + p.p[2]) / 3.0,
-                            glm::normalize(glm::cross(p.p[1] - p.p[0], p.p[2] - p.p[0])));
+    return ShooterFrame::at(centroid(p), unit_normal(p));
 }
 
 /// Shoots from `frame` (a point and its normal) to `patches` with a hemicube of the given

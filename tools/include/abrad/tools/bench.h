@@ -44,14 +44,13 @@ struct BenchRun {
     std::string kind;  ///< "grid" or "scaling"
     std::size_t triangles_in = 0, light_triangles = 0, triangles_out = 0;
     radiosity::BakeOptions options;
-    double seconds_wall = 0.0;   ///< the bake call, wall clock
-    double seconds_store = 0.0;  ///< writing the bake to the database
-    double peak_rss_mb = 0.0;    ///< peak resident memory of the process during the bake and store
-                                 ///< (sampled every 2 ms), MB
-    double ff_error = -1.0;      ///< hemicube form-factor error, relative L1 (-1: not measured)
-    double field_error = -1.0;   ///< field error, relative L1 (-1: not measured)
-    std::vector<std::pair<std::string, double>> statistics;  ///< the bake's own
-    double stat(const std::string& key) const;               ///< a statistic, or 0 when absent
+    double seconds_wall = 0.0;    ///< the bake call, wall clock
+    double seconds_store = 0.0;   ///< writing the bake to the database
+    double peak_rss_mb = 0.0;     ///< peak resident memory of the process during the bake and store
+                                  ///< (sampled every 2 ms), MB
+    double ff_error = -1.0;       ///< hemicube form-factor error, relative L1 (-1: not measured)
+    double field_error = -1.0;    ///< field error, relative L1 (-1: not measured)
+    visdb::BakeStats statistics;  ///< the bake's own
 };
 
 /// The settings grid: Z-buffer at R = 50, 100, 200, 400; A-buffer at R = 26 (the even resolution

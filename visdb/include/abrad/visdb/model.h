@@ -6,16 +6,74 @@
 // counter-clockwise (right-hand normal).
 
 #include <cstdint>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "abrad/visdb/bake_stats.h"
 
 namespace abrad::visdb {
 
 /// Linear radiometric RGB triple.
 using Rgb = glm::dvec3;
+
+/// Luminance Y of linear Rec. 709 RGB: 0.2126 R + 0.7152 G + 0.0722 B (the one set of
+/// weights: photometric scenes, tone mapping, grids and false colour use it).
+template <class Vec3>
+constexpr double luminance(const Vec3& c) {
+    return 0.2126 * static_cast<double>(c.x) + 0.7152 * static_cast<double>(c.y) +
+           0.0722 * static_cast<double>(c.z);
+}
+
+/// Mean of the three channels (powers and energies summed over RGB report this).
+inline double channel_mean(const Rgb& c) { return (c.x + c.y + c.z) / 3.0; }
+
+/// True iff some channel is positive (an emittance that makes a light source).
+inline bool any_positive(const Rgb& c) { return c.x > 0.0 || c.y > 0.0 || c.z > 0.0; }
+
+/// The origin of the local frame that single-precision and tolerance-sensitive work uses
+/// (the bake's hemicubes and mesher, glTF and POV-Ray vertices): the centre of the points'
+/// bounding box rounded to whole metres when that lies 1 km or more from the origin, else
+/// zero. Subtracting it from survey coordinates (1e6 m) is exact (Sterbenz) and leaves
+/// coordinates of the building's own size; near the origin the scene's frame is already local
+/// (and bakes stay bit-identical to those of a scene given there). The one policy.
+template <class Points>
+glm::dvec3 local_origin(const Points& points) {
+    glm::dvec3 lo{std::numeric_limits<double>::max()};
+    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
+    for (const glm::dvec3& p : points) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    if (!(lo.x <= hi.x)) return glm::dvec3{0.0};
+    const glm::dvec3 origin = glm::round(0.5 * (lo + hi));
+    return glm::length(origin) < 1e3 ? glm::dvec3{0.0} : origin;
+}
+
+/// Two unit vectors u, v with (u, v, n) a right-handed orthonormal frame around the unit
+/// vector `n`: u is the world axis least aligned with n (x before y before z on ties) crossed
+/// with n, normalised; v = n × u. The one rule for frames of a plane (the mesher, polygon
+/// triangulation, shadow-edge fans). Two frames keep rules of their own, for a reason: the
+/// hemicube's (hemicube.cpp: its rotation about the normal is part of every stored bake) and
+/// the DXF object coordinate system (the arbitrary axis algorithm of the DXF reference).
+inline std::pair<glm::dvec3, glm::dvec3> orthonormal_basis(const glm::dvec3& n) {
+    const glm::dvec3 a = glm::abs(n);
+    const glm::dvec3 axis = a.x <= a.y && a.x <= a.z ? glm::dvec3(1, 0, 0)
+                            : a.y <= a.z             ? glm::dvec3(0, 1, 0)
+                                                     : glm::dvec3(0, 0, 1);
+    const glm::dvec3 u = glm::normalize(glm::cross(axis, n));
+    return {u, glm::cross(n, u)};
+}
+
+/// Area of the triangle (a, b, c), m²: half the length of (b − a) × (c − a).
+inline double triangle_area(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    return 0.5 * glm::length(glm::cross(b - a, c - a));
+}
 
 /// A diffuse material. `reflectance` ρ in [0,1) per channel, `emittance` E in W/m² (radiant
 /// exitance from the front), `opacity` α in [0,1] (1 = opaque; 1 − α of the light passes).
@@ -26,7 +84,7 @@ struct Material {
     double opacity = 1.0;
 
     /// A material emits iff some channel of E is positive.
-    bool is_emitter() const { return emittance.x > 0.0 || emittance.y > 0.0 || emittance.z > 0.0; }
+    bool is_emitter() const { return any_positive(emittance); }
 };
 
 /// An indexed triangle mesh in double precision, metres. Triangles index `positions`.
@@ -95,6 +153,18 @@ struct Scene {
     }
 };
 
+/// local_origin of every position of every surface of a scene.
+inline glm::dvec3 local_origin(const Scene& scene) {
+    std::vector<glm::dvec3> corners;
+    for (const auto& s : scene.surfaces)
+        for (const glm::dvec3& p : s.mesh.positions) {
+            if (corners.empty()) corners = {p, p};
+            corners[0] = glm::min(corners[0], p);
+            corners[1] = glm::max(corners[1], p);
+        }
+    return local_origin(corners);
+}
+
 /// The mesh a bake produced with its per-vertex shades. Vertices are not shared across
 /// surfaces or across faces of different normals. All arrays indexed by vertex have the
 /// same length; `triangle_surface` has one entry per triangle (index into Scene::surfaces).
@@ -114,7 +184,7 @@ struct Bake {
     std::string created_at;                                       ///< ISO 8601 UTC
     std::string unit = "W/m2";                                    ///< unit of irradiance/radiosity
     std::vector<std::pair<std::string, std::string>> parameters;  ///< e.g. {"method","abuffer"}
-    std::vector<std::pair<std::string, double>> statistics;       ///< e.g. {"seconds_total",0.4}
+    BakeStats statistics;                                         ///< what the bake measured
     BakeMesh mesh;
 };
 

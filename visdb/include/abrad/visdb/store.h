@@ -34,7 +34,7 @@ struct BakeSummary {
     std::string created_at;
     std::string unit;
     std::vector<std::pair<std::string, std::string>> parameters;
-    std::vector<std::pair<std::string, double>> statistics;
+    BakeStats statistics;
     std::size_t vertex_count = 0;
     std::size_t triangle_count = 0;
 };

@@ -1,0 +1,241 @@
+// Stage 3 of the bake: discontinuity meshing. Each planar region is triangulated with the
+// shadow segments as constraints (a CGAL constrained Delaunay triangulation, dm_mesh.h), then
+// refined in rounds where the exact irradiance at an edge's midpoint departs from the linear
+// interpolation of its ends (Heckbert 1992, Lischinski, Tampieri & Greenberg 1992).
+// docs/algorithms.md#discontinuity-meshing and #illumination-driven-refinement.
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstring>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "abrad/radiosity/direct.h"
+#include "stages.h"
+
+namespace abrad::radiosity {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Exact position (and region) as a hash key.
+struct PointKey {
+    std::uint32_t region;
+    std::array<std::uint64_t, 3> bits;
+    friend bool operator==(const PointKey&, const PointKey&) = default;
+};
+PointKey key_of(std::uint32_t region, const glm::dvec3& p) {
+    PointKey k{region, {}};
+    for (int i = 0; i < 3; ++i) std::memcpy(&k.bits[i], &p[i], sizeof(double));
+    return k;
+}
+struct PointKeyHash {
+    std::size_t operator()(const PointKey& k) const {
+        std::uint64_t h = 0xcbf29ce484222325ULL ^ k.region;
+        for (std::uint64_t b : k.bits) h = (h ^ b) * 0x100000001b3ULL;
+        return static_cast<std::size_t>(h ^ (h >> 29));
+    }
+};
+// Exact irradiance by region and exact position, kept across rounds.
+using IrradianceCache = std::unordered_map<PointKey, visdb::Rgb, PointKeyHash>;
+
+bool lexicographically_less(const glm::dvec3& a, const glm::dvec3& b) {
+    return std::lexicographical_compare(&a.x, &a.x + 3, &b.x, &b.x + 3);
+}
+
+// The shadow segments as the regions' constraints, in one order whatever order the lights
+// and receivers finished in (the mesh was nondeterministic by a few triangles). Returns how
+// many were given.
+std::size_t add_constraints(std::vector<std::vector<ShadowSegment>>& segments, Regions& regions) {
+    auto lex = [](const ShadowSegment& x, const ShadowSegment& y) {
+        return lexicographically_less(x.a, y.a) || (x.a == y.a && lexicographically_less(x.b, y.b));
+    };
+    std::size_t constraints = 0;
+    for (std::size_t t = 0; t < segments.size(); ++t) {
+        std::sort(segments[t].begin(), segments[t].end(), lex);
+        for (const ShadowSegment& s : segments[t]) {
+            regions.planar[regions.of_triangle[t]].constraints.push_back({s.a, s.b});
+            ++constraints;
+        }
+    }
+    segments = {};
+    return constraints;
+}
+
+// The meshed regions as one bake mesh (each region's vertices its own).
+void assemble(const Regions& regions, const std::vector<MeshedRegion>& meshed,
+              DiscontinuityMesh& out) {
+    out.mesh = {};
+    out.vertex_region.clear();
+    for (std::size_t r = 0; r < meshed.size(); ++r) {
+        const auto base = static_cast<std::uint32_t>(out.mesh.positions.size());
+        const glm::vec3 n(regions.planar[r].normal);
+        for (const glm::dvec3& p : meshed[r].positions) {
+            out.mesh.positions.push_back(p);
+            out.mesh.normals.push_back(n);
+            out.vertex_region.push_back(static_cast<std::uint32_t>(r));
+        }
+        for (const glm::u32vec3& t : meshed[r].triangles) {
+            out.mesh.triangles.push_back(t + glm::u32vec3(base));
+            out.mesh.triangle_surface.push_back(regions.surface[r]);
+        }
+    }
+}
+
+// Exact irradiance at every vertex of `out` (from the cache where known); returns the
+// number of new evaluations.
+std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
+                              double reach, IrradianceCache& cache, DiscontinuityMesh& out) {
+    const std::size_t n = out.mesh.positions.size();
+    out.irradiance.assign(n, visdb::Rgb(0.0));
+    std::vector<char> fresh(n, 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
+        std::vector<const Patch*> occ;
+        for (std::size_t v = range.begin(); v != range.end(); ++v) {
+            const auto it = cache.find(key_of(out.vertex_region[v], out.mesh.positions[v]));
+            if (it != cache.end()) {
+                out.irradiance[v] = it->second;
+                continue;
+            }
+            out.irradiance[v] =
+                exact_irradiance(g.patches, g.emittance, g.lights, bvh, out.mesh.positions[v],
+                                 regions.planar[out.vertex_region[v]].normal, occ, reach);
+            fresh[v] = 1;
+        }
+    });
+    std::size_t evaluations = 0;
+    for (std::size_t v = 0; v < n; ++v)
+        if (fresh[v]) {
+            cache.emplace(key_of(out.vertex_region[v], out.mesh.positions[v]), out.irradiance[v]);
+            ++evaluations;
+        }
+    return evaluations;
+}
+
+// The points that split region r's edges whose midpoint's exact irradiance departs from the
+// linear interpolation of their ends; midpoints evaluated here go to `evaluated`.
+void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
+                   const MeshedRegion& m, std::uint32_t r, const visdb::Rgb* h, double floor,
+                   const BakeOptions& options, const IrradianceCache& cache,
+                   std::vector<glm::dvec3>& split,
+                   std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+    for (const glm::u32vec3& t : m.triangles)
+        for (int k = 0; k < 3; ++k)
+            edges.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    std::vector<const Patch*> occ;
+    const glm::dvec3 rn = regions.planar[r].normal;
+    for (const auto& [a, b] : edges) {
+        const glm::dvec3 pa = m.positions[a], pb = m.positions[b];
+        if (glm::length(pb - pa) < options.refine_min_edge) continue;
+        // Canonical midpoint: the same bits from either region sharing the edge
+        const glm::dvec3 mid =
+            lexicographically_less(pa, pb) ? pa + 0.5 * (pb - pa) : pb + 0.5 * (pa - pb);
+        const visdb::Rgb linear = 0.5 * (h[a] + h[b]);
+        const PointKey key = key_of(r, mid);
+        const auto hit = cache.find(key);
+        visdb::Rgb at_mid;
+        if (hit != cache.end()) {
+            at_mid = hit->second;
+        } else {
+            at_mid = exact_irradiance(g.patches, g.emittance, g.lights, bvh, mid, rn, occ,
+                                      options.reach);
+            evaluated.emplace_back(key, at_mid);
+        }
+        const double diff = visdb::channel_mean(glm::abs(at_mid - linear));
+        if (diff > floor && diff > options.refine_tolerance * std::max(visdb::channel_mean(at_mid),
+                                                                       visdb::channel_mean(linear)))
+            split.push_back(mid);
+    }
+}
+
+// One refinement round over every non-emitting region: adds the split points to the regions;
+// returns how many were added.
+std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
+                   const std::vector<MeshedRegion>& meshed, const DiscontinuityMesh& current,
+                   const BakeOptions& options, IrradianceCache& cache, std::uint64_t& evaluations) {
+    double h_max = 0.0;
+    for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
+    const double floor = 1e-3 * h_max;
+    std::vector<std::uint32_t> region_start(meshed.size() + 1, 0);
+    for (std::size_t r = 0; r < meshed.size(); ++r)
+        region_start[r + 1] =
+            region_start[r] + static_cast<std::uint32_t>(meshed[r].positions.size());
+    std::vector<std::vector<glm::dvec3>> split(meshed.size());
+    // Midpoints evaluated this round, cached like vertices: an edge that stays unsplit keeps
+    // its midpoint's bits, so later rounds look it up instead of re-evaluating
+    std::vector<std::vector<std::pair<PointKey, visdb::Rgb>>> evaluated(meshed.size());
+    tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
+        if (regions.emitter[r]) return;
+        refine_region(g, bvh, regions, meshed[r], static_cast<std::uint32_t>(r),
+                      current.irradiance.data() + region_start[r], floor, options, cache, split[r],
+                      evaluated[r]);
+    });
+    for (const auto& list : evaluated)
+        for (const auto& [key, value] : list)
+            if (cache.emplace(key, value).second) ++evaluations;
+    std::size_t added = 0;
+    std::unordered_set<PointKey, PointKeyHash> seen;
+    for (std::size_t r = 0; r < split.size(); ++r)
+        for (const glm::dvec3& p : split[r])
+            if (seen.insert(key_of(0, p)).second) {
+                regions.planar[r].points.push_back(p);
+                ++added;
+            }
+    return added;
+}
+
+}  // namespace
+
+DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
+                                       std::vector<std::vector<ShadowSegment>>& segments,
+                                       const BakeOptions& options, visdb::BakeStats* stats,
+                                       const ProgressFn& progress) {
+    const auto t_dm = Clock::now();
+    visdb::DiscontinuityStats st;
+    if (stats && stats->dm) st = *stats->dm;  // the shadow edge counters of shoot_lights
+    st.regions = regions.planar.size();
+    st.triangles_before = g.mesh.triangles.size();
+    st.segments = add_constraints(segments, regions);
+    const DmOptions dm_options{.min_angle_deg = options.dm_min_angle, .merge_distance = 1e-6};
+    IrradianceCache cache;
+    DiscontinuityMesh out;
+    for (int round = 0;; ++round) {
+        if (progress) progress("mesh", std::size_t(round), std::size_t(options.refine_rounds) + 1);
+        const auto tm = Clock::now();
+        DmStats mesher;
+        const std::vector<MeshedRegion> meshed = mesh_regions(regions.planar, dm_options, &mesher);
+        st.seconds_mesh += seconds_since(tm);
+        if (round == 0) {
+            st.constraints_dropped = mesher.constraints_dropped;
+            st.points_merged = mesher.points_merged;
+        }
+        st.conformity_points = mesher.conformity_points;
+        ++st.rounds;
+        assemble(regions, meshed, out);
+        st.exact_evaluations += evaluate_vertices(g, bvh, regions, options.reach, cache, out);
+        if (round >= options.refine_rounds) break;
+        const std::size_t added =
+            refine(g, bvh, regions, meshed, out, options, cache, st.exact_evaluations);
+        st.refine_points += added;
+        if (added == 0) break;
+    }
+    st.seconds = seconds_since(t_dm);
+    if (stats) stats->dm = st;
+    return out;
+}
+
+}  // namespace abrad::radiosity

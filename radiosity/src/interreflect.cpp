@@ -1,0 +1,51 @@
+// Stage 4 of the bake: interreflection on the scene's triangles, clustered into elements per
+// planar region, solved by progressive refinement (indirect.h states the method and papers;
+// docs/algorithms.md#interreflection).
+
+#include <algorithm>
+#include <vector>
+
+#include "stages.h"
+
+namespace abrad::radiosity {
+
+IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
+                              const BakeOptions& options, visdb::BakeStats* stats,
+                              const ProgressFn& progress) {
+    std::vector<glm::dvec3> region_normal;
+    region_normal.reserve(regions.planar.size());
+    for (const PlanarRegion& r : regions.planar) region_normal.push_back(r.normal);
+    const IndirectInput input{.patches = g.patches,
+                              .reflectance = g.reflectance,
+                              .emittance = g.emittance,
+                              .region = regions.of_triangle,
+                              .region_normal = region_normal};
+    const IndirectOptions io{.bounces = std::max(options.bounces, 0),
+                             .converge = options.converge,
+                             .element_size = options.element_size,
+                             .overrelaxation = options.overrelaxation,
+                             .ambient = options.ambient,
+                             .method = options.method,
+                             .resolution = options.resolution,
+                             .subpixels = options.subpixels};
+    IndirectSolution s = solve_indirect(input, io, progress);
+    if (options.convergence) *options.convergence = s.curve;
+    if (stats) {
+        visdb::InterreflectionStats& i = stats->indirect.emplace();
+        i.elements = s.elements.size();
+        i.pieces = s.pieces;
+        i.shots = s.shots;
+        i.rows = s.rows_computed;
+        i.bounces = static_cast<std::uint64_t>(s.bounces_done);
+        i.unshot_fraction = s.curve.empty() ? 0.0 : s.curve.back().unshot_fraction;
+        i.ambient = visdb::channel_mean(s.ambient_irradiance);
+        i.energy_emitted_w = s.energy.emitted;
+        i.energy_absorbed_w = s.energy.absorbed;
+        i.energy_escaped_w = s.energy.escaped;
+        i.energy_unshot_w = s.energy.unshot;
+        i.seconds = s.seconds;
+    }
+    return s;
+}
+
+}  // namespace abrad::radiosity

@@ -1,0 +1,88 @@
+// Stages 5 and 6 of the bake: the paper's patch shading (area-weighted patch irradiance at
+// each vertex, section 3.5) and the radiosity B = E + ρH at every output vertex.
+// docs/algorithms.md#vertex-shading.
+
+#include <tbb/parallel_for.h>
+
+#include <mutex>
+#include <vector>
+
+#include "stages.h"
+
+namespace abrad::radiosity {
+
+double add_patch_irradiance(const ShootResult& shot, const visdb::Rgb& emittance, double light_area,
+                            const BakeGeometry& target,
+                            std::vector<visdb::Rgb>& triangle_irradiance) {
+    double ff_sum = 0.0;
+    for (std::size_t j = 0; j < target.patches.size(); ++j) {
+        if (shot.form_factor[j] <= 0.0 || !(target.area[j] > 0.0)) continue;
+        ff_sum += shot.form_factor[j];
+        triangle_irradiance[j] += emittance * (shot.form_factor[j] * light_area / target.area[j]);
+    }
+    return ff_sum;
+}
+
+std::vector<visdb::Rgb> average_to_vertices(const BakeGeometry& g,
+                                            const std::vector<visdb::Rgb>& triangle_irradiance) {
+    std::vector<visdb::Rgb> vert(g.mesh.positions.size(), visdb::Rgb(0.0));
+    for (std::size_t v = 0; v < vert.size(); ++v) {
+        visdb::Rgb sum(0.0);
+        double area = 0.0;
+        for (std::uint32_t k = g.incident_start[v]; k < g.incident_start[v + 1]; ++k) {
+            const std::uint32_t t = g.incident[k];
+            sum += triangle_irradiance[t] * g.area[t];
+            area += g.area[t];
+        }
+        vert[v] = area > 0.0 ? sum / area : visdb::Rgb(0.0);
+    }
+    return vert;
+}
+
+std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeometry& target,
+                                      const BakeOptions& options) {
+    const Hemicube hemicube(options.resolution);
+    std::vector<visdb::Rgb> tri(target.mesh.triangles.size(), visdb::Rgb(0.0));
+    const ShootOptions so{
+        .method = options.method, .subpixels = options.subpixels, .occlusion = false};
+    std::mutex accumulate;
+    tbb::parallel_for(std::size_t{0}, lights.lights.size(), [&](std::size_t li) {
+        const std::uint32_t l = lights.lights[li];
+        // The light's own pieces lie in the shooter's plane and receive nothing
+        const ShootResult shot = shoot(frame_of(lights.patches[l]), target.patches, hemicube, so);
+        std::vector<visdb::Rgb> mine(tri.size(), visdb::Rgb(0.0));
+        add_patch_irradiance(shot, lights.emittance[l], lights.area[l], target, mine);
+        std::lock_guard lock(accumulate);
+        for (std::size_t j = 0; j < tri.size(); ++j) tri[j] += mine[j];
+    });
+    return average_to_vertices(target, tri);
+}
+
+visdb::BakeMesh shade_vertices(BakeGeometry target, const std::vector<visdb::Rgb>& direct,
+                               const IndirectSolution* indirect,
+                               const std::vector<std::uint32_t>& vertex_region,
+                               visdb::BakeStats* stats) {
+    // B = E + ρH with the material of the vertex's first triangle: all of a vertex's
+    // triangles belong to one surface
+    visdb::BakeMesh& mesh = target.mesh;
+    const std::size_t n = mesh.positions.size();
+    mesh.irradiance.resize(n);
+    mesh.radiosity.resize(n);
+    double indirect_sum = 0.0;
+    for (std::size_t v = 0; v < n; ++v) {
+        const std::uint32_t t = target.incident[target.incident_start[v]];
+        visdb::Rgb h = direct[v];
+        if (indirect) {
+            const visdb::Rgb ind = indirect->at(vertex_region[v], mesh.positions[v]);
+            h += ind;
+            indirect_sum += visdb::channel_mean(ind);
+        }
+        mesh.irradiance[v] = glm::vec3(h);
+        mesh.radiosity[v] = glm::vec3(target.emittance[t] + target.reflectance[t] * h);
+    }
+    if (stats && stats->indirect)
+        stats->indirect->mean_at_vertices = n ? indirect_sum / static_cast<double>(n) : 0.0;
+    return std::move(target.mesh);
+}
+
+}  // namespace abrad::radiosity

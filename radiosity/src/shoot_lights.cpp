@@ -1,0 +1,279 @@
+// Stage 2 of the bake: one A-buffer (or Z-buffer) hemicube shot from every light-source
+// triangle (Wang et al., "Using A-Buffer in Radiosity": the progressive refinement step
+// restricted to the lights), with what each shot feeds: patch irradiance, exact vertex
+// irradiance past the occluders of the occlusion lists (Algorithm 2), and shadow edges
+// (Algorithm 3) for discontinuity meshing. docs/algorithms.md#light-triangle-shooting,
+// #occlusion-lists and #shadow-edges.
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <mutex>
+#include <utility>
+#include <vector>
+
+#include "abrad/radiosity/cull.h"
+#include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/exact.h"
+#include "stages.h"
+
+namespace abrad::radiosity {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// False when `c` cannot hide any part of `light` from any part of `receiver`: the six
+// corners lie on one closed side of c's plane, so no segment between them crosses it (a
+// floor cannot shadow a wall standing on it; a wall cannot shadow the floor).
+bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
+    const glm::dvec3 cr = cross_normal(c);
+    const double len = glm::length(cr);
+    if (!(len > 0.0)) return false;
+    const glm::dvec3 n = cr / len;
+    double lo = 0.0, hi = 0.0;
+    for (const Patch* q : {&light, &receiver})
+        for (const glm::dvec3& p : q->p) {
+            const double d = glm::dot(p - c.p[0], n);
+            lo = std::min(lo, d);
+            hi = std::max(hi, d);
+        }
+    const double eps = 1e-9 * (hi - lo) + 1e-12;
+    return lo < -eps && hi > eps;
+}
+
+// One light's shot and what it contributes, before it is added to the totals.
+struct OneLight {
+    std::vector<std::uint32_t> near;           // triangles the light can reach (cull.h)
+    std::vector<std::uint32_t> near_vertices;  // their vertices
+    std::vector<visdb::Rgb> triangle;          // patch irradiance, all triangles
+    std::vector<visdb::Rgb> vertex;            // exact irradiance (exact shading without DM)
+    std::vector<std::pair<std::uint32_t, ShadowSegment>> segments;  // (receiver, segment)
+    visdb::ShootStats shoot;
+    visdb::ExactShadeStats exact;
+    visdb::ShadowEdgeStats shadow;
+    ShadowStats shadow_edges;
+};
+
+// Exact vertex irradiance from light l past the occluders the fragment lists found.
+// Candidates: the occlusion lists of the vertex's triangles (Algorithm 2, from the light's
+// centroid), completed by a conservative bounding-volume query of the region between the
+// vertex and the light: occluders that hide only part of the light (penumbra) may be
+// invisible from the centroid.
+void shade_vertices_exactly(const BakeGeometry& g, const Bvh& bvh, std::uint32_t l,
+                            const ShootResult& shot, const std::vector<std::uint32_t>& vertices,
+                            OneLight& out) {
+    const Patch& light = g.patches[l];
+    const glm::dvec3 normal = unit_normal(light);
+    out.vertex.assign(g.mesh.positions.size(), visdb::Rgb(0.0));
+    std::mutex accumulate;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, vertices.size(), 64), [&](const auto& range) {
+            std::vector<std::uint32_t> ids, listed, touched;
+            std::vector<const Patch*> occ;
+            VisibleStats vs;
+            vs.touched = &touched;
+            std::uint64_t missed = 0;
+            for (std::size_t vi = range.begin(); vi != range.end(); ++vi) {
+                const std::uint32_t v = vertices[vi];
+                const glm::dvec3 x = g.mesh.positions[v];
+                if (glm::dot(x - light.p[0], normal) <= 0.0) continue;  // behind the light
+                listed.clear();
+                for (std::uint32_t k = g.incident_start[v]; k < g.incident_start[v + 1]; ++k)
+                    for (const OcclusionPair& p : shot.occluders_of(g.incident[k]))
+                        if (p.occluder != l) listed.push_back(p.occluder);
+                std::sort(listed.begin(), listed.end());
+                listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
+                ids = listed;
+                for_each_shadow_candidate(bvh, g.patches, l, x, [&](std::uint32_t id) {
+                    if (!std::binary_search(listed.begin(), listed.end(), id)) ids.push_back(id);
+                });
+                occ.clear();
+                for (std::uint32_t id : ids) occ.push_back(&g.patches[id]);
+                touched.clear();
+                const double f =
+                    visible_form_factor(x, glm::dvec3(g.mesh.normals[v]), light, occ, &vs);
+                for (std::uint32_t t : touched) missed += t >= listed.size();
+                out.vertex[v] = g.emittance[l] * f;
+            }
+            std::lock_guard lock(accumulate);
+            out.exact.occluders_tested += vs.occluders_tested;
+            out.exact.occluders_hiding_light += vs.occluders_projected;
+            out.exact.occluders_missed_by_lists += missed;
+        });
+}
+
+// Occluders that may cast a shadow edge of light l on receiver j: j's occlusion list,
+// completed by a conservative query of the shaft of the light and the receiver (the lists
+// come from the centroid only). Returns how many came from the list.
+std::size_t edge_occluders(const BakeGeometry& g, const Bvh& bvh, std::uint32_t l, std::uint32_t j,
+                           const ShootResult& shot, std::vector<std::uint32_t>& ids) {
+    const Patch& light = g.patches[l];
+    const Patch& r = g.patches[j];
+    ids.clear();
+    // Only occluders whose plane separates some light and receiver points
+    for (const OcclusionPair& p : shot.occluders_of(j))
+        if (p.occluder != l && can_occlude(g.patches[p.occluder], light, r))
+            ids.push_back(p.occluder);
+    const std::size_t n_listed = ids.size();
+    // Shaft of light and receiver: the convex hull of their six corners
+    const glm::dvec3 corners[6] = {light.p[0], light.p[1], light.p[2], r.p[0], r.p[1], r.p[2]};
+    bvh.query(Hull(corners), [&](std::uint32_t id) {
+        if (id != l && id != j &&
+            std::find(ids.begin(), ids.begin() + n_listed, id) == ids.begin() + n_listed &&
+            can_occlude(g.patches[id], light, r))
+            ids.push_back(id);
+    });
+    return n_listed;
+}
+
+// Shadow edges (Algorithm 3) of light l on every receiver in front of the light that faces
+// it.
+void project_shadow_edges(const BakeGeometry& g, const Bvh& bvh, std::uint32_t l,
+                          const ShootResult& shot, const std::vector<std::uint32_t>& receivers,
+                          LightModel model, OneLight& out) {
+    const Patch& light = g.patches[l];
+    const glm::dvec3 normal = unit_normal(light);
+    std::mutex accumulate;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, receivers.size(), 32), [&](const auto& range) {
+            std::vector<std::pair<std::uint32_t, ShadowSegment>> here;
+            std::vector<std::uint32_t> ids;
+            std::vector<const Patch*> occ;
+            ShadowStats s;
+            visdb::ShadowEdgeStats counts;
+            for (std::size_t ji = range.begin(); ji != range.end(); ++ji) {
+                const std::uint32_t j = receivers[ji];
+                if (j == l || visdb::any_positive(g.emittance[j])) continue;
+                const Patch& r = g.patches[j];
+                const glm::dvec3 rn = unit_normal(r);
+                bool in_front = false, facing = false;
+                for (int k = 0; k < 3; ++k) {
+                    in_front |= glm::dot(r.p[k] - light.p[0], normal) > 0.0;
+                    facing |= glm::dot(light.p[k] - r.p[0], rn) > 0.0;
+                }
+                if (!in_front || !facing) continue;
+                const std::size_t n_listed = edge_occluders(g, bvh, l, j, shot, ids);
+                if (ids.empty()) continue;
+                ++counts.receivers;
+                counts.occluders_listed += n_listed;
+                counts.occluders_added_by_bvh += ids.size() - n_listed;
+                occ.clear();
+                for (std::uint32_t id : ids) occ.push_back(&g.patches[id]);
+                for (const ShadowSegment& seg : shadow_edges(light, model, r, occ, 1e-6, &s))
+                    here.emplace_back(j, seg);
+            }
+            std::lock_guard lock(accumulate);
+            out.segments.insert(out.segments.end(), here.begin(), here.end());
+            out.shadow_edges += s;
+            out.shadow += counts;
+        });
+}
+
+// Shoots from light l and computes what the bake asks of it.
+OneLight shoot_one(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicube, std::uint32_t l,
+                   const BakeOptions& options) {
+    const bool exact = options.shading == Shading::Exact;
+    OneLight out;
+    const auto t0 = Clock::now();
+    // Hemicube at the light triangle's centroid, around its front normal. Culling: only
+    // triangles in front of the light and within its reach (cull.h)
+    ShootOptions so{
+        .method = options.method, .subpixels = options.subpixels, .occlusion = exact || options.dm};
+    so.exclude = l;
+    out.near = light_candidates(bvh, g.patches, l, options.reach);
+    out.near_vertices = vertices_of(out.near, g.mesh.triangles);
+    so.only = &out.near;
+    const ShootResult shot = shoot(frame_of(g.patches[l]), g.patches, hemicube, so);
+    out.shoot.seconds_cpu = seconds_since(t0);
+
+    out.triangle.assign(g.patches.size(), visdb::Rgb(0.0));
+    out.shoot.form_factor_sum =
+        add_patch_irradiance(shot, g.emittance[l], g.area[l], g, out.triangle);
+    out.shoot.fragments = shot.fragments;
+    out.shoot.undersampled_fragments = shot.undersampled_pixels;
+    out.shoot.occlusion_pairs = shot.occlusion.size();
+    out.shoot.occlusion_pairs_raw = shot.raw_pairs;
+    out.shoot.seconds_occlusion_cpu = shot.seconds_occlusion;
+
+    const auto t1 = Clock::now();
+    if (exact && !options.dm) shade_vertices_exactly(g, bvh, l, shot, out.near_vertices, out);
+    out.exact.seconds_cpu = seconds_since(t1);
+
+    const auto t2 = Clock::now();
+    if (options.dm) project_shadow_edges(g, bvh, l, shot, out.near, options.lights, out);
+    out.shadow.seconds_cpu = seconds_since(t2);
+    return out;
+}
+
+}  // namespace
+
+LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const BakeOptions& options,
+                        visdb::BakeStats* stats, const ProgressFn& progress) {
+    const std::size_t nt = g.mesh.triangles.size(), nv = g.mesh.positions.size();
+    const bool exact_vertices = options.shading == Shading::Exact && !options.dm;
+    const Hemicube hemicube(options.resolution);
+    LightShots shots;
+    shots.triangle_irradiance.assign(nt, visdb::Rgb(0.0));
+    shots.vertex_irradiance.assign(nv, visdb::Rgb(0.0));
+    shots.segments.resize(options.dm ? nt : 0);
+    visdb::ShootStats shoot_stats;
+    visdb::ExactShadeStats exact_stats;
+    visdb::ShadowEdgeStats shadow_stats;
+    std::mutex accumulate;
+    std::size_t done = 0;
+    if (progress) progress("shoot", 0, g.lights.size());
+
+    tbb::parallel_for(std::size_t{0}, g.lights.size(), [&](std::size_t li) {
+        const std::uint32_t l = g.lights[li];
+        const OneLight one = shoot_one(g, bvh, hemicube, l, options);
+        // The light's receivers and their vertices are the only non-zero entries
+        std::lock_guard lock(accumulate);
+        for (const std::uint32_t j : one.near) shots.triangle_irradiance[j] += one.triangle[j];
+        if (exact_vertices)
+            for (const std::uint32_t v : one.near_vertices)
+                shots.vertex_irradiance[v] += one.vertex[v];
+        for (const auto& [j, seg] : one.segments) shots.segments[j].push_back(seg);
+        shoot_stats += one.shoot;
+        exact_stats += one.exact;
+        shadow_stats += one.shadow;
+        shadow_stats.edges_projected += one.shadow_edges.edges_projected;
+        shadow_stats.shared_edges_skipped += one.shadow_edges.shared_edges_skipped;
+        shadow_stats.segments_split += one.shadow_edges.segments_split;
+        ++done;
+        if (progress) progress("shoot", done, g.lights.size());
+    });
+
+    if (stats) {
+        // Energy: emitted power, and power arriving on the receivers (from the hemicube)
+        double emitted = 0.0, received = 0.0, light_area = 0.0;
+        for (std::uint32_t l : g.lights) {
+            emitted += visdb::channel_mean(g.emittance[l]) * g.area[l];
+            light_area += g.area[l];
+        }
+        for (std::size_t t = 0; t < nt; ++t)
+            received += visdb::channel_mean(shots.triangle_irradiance[t]) * g.area[t];
+        stats->light_triangles = g.lights.size();
+        stats->light_area_m2 = light_area;
+        stats->shoot = shoot_stats;
+        stats->mean_form_factor_sum =
+            shoot_stats.form_factor_sum / static_cast<double>(g.lights.size());
+        stats->emitted_power_w = emitted;
+        stats->received_power_w = received;
+        if (options.dm) {
+            if (!stats->dm) stats->dm.emplace();
+            stats->dm->shadow = shadow_stats;
+        } else {
+            stats->exact_shade = exact_stats;
+        }
+    }
+    return shots;
+}
+
+}  // namespace abrad::radiosity

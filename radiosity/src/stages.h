@@ -1,0 +1,116 @@
+#pragma once
+// The stages of the bake, in the order bake.cpp runs them (the shape they share is stated at
+// the top of bake.h). Internal to the radiosity library: one file per stage.
+//
+//   build_bake_mesh     bake_mesh.cpp       the scene's triangles, split by surface and normal
+//   shoot_lights        shoot_lights.cpp    one hemicube per light: patch irradiance, exact
+//                                           vertex irradiance (no DM), shadow segments (DM)
+//   mesh_discontinuities discontinuity.cpp  CDT per planar region with the shadow segments,
+//                                           refined where the exact irradiance is not linear
+//   interreflect        interreflect.cpp    progressive refinement on elements (indirect.h)
+//   shade_patches       shade.cpp           the paper's patch shading on a new mesh
+//   shade_vertices      shade.cpp           B = E + ρH at every output vertex
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "abrad/radiosity/bake.h"
+#include "abrad/radiosity/bvh.h"
+#include "abrad/radiosity/dm_mesh.h"
+#include "abrad/radiosity/hemicube.h"
+#include "abrad/radiosity/indirect.h"
+#include "abrad/radiosity/shadow_edges.h"
+#include "abrad/visdb/model.h"
+
+namespace abrad::radiosity {
+
+/// A mesh to shoot onto and shade, with what shading needs beside it: per triangle its
+/// patch, area and material; per vertex its triangles (compressed rows).
+struct BakeGeometry {
+    visdb::BakeMesh mesh;
+    std::vector<Patch> patches;                           ///< one per mesh triangle
+    std::vector<double> area;                             ///< per triangle, m²
+    std::vector<visdb::Rgb> emittance;                    ///< per triangle
+    std::vector<visdb::Rgb> reflectance;                  ///< per triangle
+    std::vector<std::uint32_t> incident_start, incident;  ///< triangles around each vertex
+    std::vector<std::uint32_t> lights;                    ///< emitting triangles, ascending
+};
+
+/// Planar regions: edge- or vertex-connected triangles of one surface and one plane.
+struct Regions {
+    std::vector<PlanarRegion> planar;
+    std::vector<std::uint32_t> surface;      ///< per region
+    std::vector<char> emitter;               ///< per region
+    std::vector<std::uint32_t> of_triangle;  ///< per bake triangle
+};
+
+/// What the lights' shots leave for the later stages.
+struct LightShots {
+    std::vector<visdb::Rgb> triangle_irradiance;       ///< patch irradiance per triangle (hemicube)
+    std::vector<visdb::Rgb> vertex_irradiance;         ///< exact, per vertex (exact shading, no DM)
+    std::vector<std::vector<ShadowSegment>> segments;  ///< per triangle (DM only)
+};
+
+/// The discontinuity mesh with the exact direct irradiance at its vertices.
+struct DiscontinuityMesh {
+    visdb::BakeMesh mesh;                      ///< positions, normals, triangles, surfaces
+    std::vector<std::uint32_t> vertex_region;  ///< planar region of each vertex
+    std::vector<visdb::Rgb> irradiance;        ///< exact direct irradiance per vertex
+};
+
+/// The scene's triangles as one mesh whose vertices are split by surface and face normal.
+/// Degenerate triangles are dropped and counted. Throws InputError for a surface without a
+/// material, a scene without triangles or without lights.
+BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats);
+
+/// `mesh`'s triangles described for shooting and shading (materials from `scene`).
+BakeGeometry describe_mesh(const visdb::Scene& scene, visdb::BakeMesh mesh);
+
+/// The planar regions of `g` (its vertices are already split by surface and normal, so
+/// connected components are planar).
+Regions make_regions(const BakeGeometry& g);
+
+/// Shoots from every light triangle (in parallel). Fills stats->shoot, the light and power
+/// figures, and stats->exact_shade (exact shading without DM) or the shadow part of stats->dm.
+LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const BakeOptions& options,
+                        visdb::BakeStats* stats, const ProgressFn& progress);
+
+/// Meshes every planar region along its shadow segments and refines it; consumes `segments`.
+/// Fills stats->dm (all but the shadow edge counters, which shoot_lights filled).
+DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
+                                       std::vector<std::vector<ShadowSegment>>& segments,
+                                       const BakeOptions& options, visdb::BakeStats* stats,
+                                       const ProgressFn& progress);
+
+/// Interreflection on `g`'s triangles clustered per planar region (options.bounces != 0);
+/// fills stats->indirect but the per-vertex mean (shade_vertices adds it).
+IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
+                              const BakeOptions& options, visdb::BakeStats* stats,
+                              const ProgressFn& progress);
+
+/// The paper's patch shading on `target` (a new mesh): every light of `lights` shoots again
+/// onto target's triangles; each vertex gets the area-weighted irradiance of its triangles.
+std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeometry& target,
+                                      const BakeOptions& options);
+
+/// Each vertex of `g` gets the area-weighted patch irradiance of its triangles.
+std::vector<visdb::Rgb> average_to_vertices(const BakeGeometry& g,
+                                            const std::vector<visdb::Rgb>& triangle_irradiance);
+
+/// Patch irradiance H_j += E_L · F_Lj · A_L / A_j of every triangle of `target` from one
+/// shot; returns Σ F.
+double add_patch_irradiance(const ShootResult& shot, const visdb::Rgb& emittance, double light_area,
+                            const BakeGeometry& target,
+                            std::vector<visdb::Rgb>& triangle_irradiance);
+
+/// Irradiance H = direct + (with `indirect`) the interpolated indirect part, and radiosity
+/// B = E + ρH at every vertex of `target`; `vertex_region` gives each vertex's planar region
+/// for the indirect lookup. Returns target's mesh with the shades; fills
+/// stats->indirect->mean_at_vertices.
+visdb::BakeMesh shade_vertices(BakeGeometry target, const std::vector<visdb::Rgb>& direct,
+                               const IndirectSolution* indirect,
+                               const std::vector<std::uint32_t>& vertex_region,
+                               visdb::BakeStats* stats);
+
+}  // namespace abrad::radiosity
