@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # One sample's reference comparison, in one command: imports and bakes the sample (direct
-# light, --bounces 0, unless --bounces says otherwise), renders the bake three ways and compares them in linear light:
+# light, --bounces 0, unless --bounces says otherwise), renders the bake three ways and
+# compares them in linear light:
 #
 #   own.exr        abrad render (abrad's Gouraud rasterizer)
 #   baked_pov.exr  POV-Ray rendering `abrad export --format pov` (the same bake, unlit)
 #   reference.exr  POV-Ray rendering `abrad export --format pov-reference` (the model lit by
-#                  POV-Ray's own point lights, direct light only)
+#                  POV-Ray's own point lights; direct light only unless --bounces)
 #
 # and writes own_vs_pov.png and baked_vs_reference.png (A | B | 4 x |A - B|, tone-mapped),
 # the difference EXRs, own.png and summary.txt (PSNRs and times) into OUTDIR.

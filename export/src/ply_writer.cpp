@@ -1,4 +1,4 @@
-// The PLY writer: the contract of DESIGN.md, "Exported PLY".
+// The PLY writer: the contract in docs/design.md#exported-ply-contract.
 
 #include <array>
 #include <bit>

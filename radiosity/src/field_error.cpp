@@ -1,5 +1,6 @@
-// The field error of a bake (ALGORITHMS.md section 8): Gouraud-interpolated vertex irradiance
-// against the exact field at the centroids of each triangle's k² similar sub-triangles.
+// The field error of a bake (docs/algorithms.md#field-error): Gouraud-interpolated vertex
+// irradiance against the exact field at the centroids of each triangle's k² similar
+// sub-triangles.
 //
 // Numerics: vertex irradiance is stored in float and widened to double before
 // interpolation; everything else is double. Sums are formed per fixed block of triangles and

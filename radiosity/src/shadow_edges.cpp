@@ -1,5 +1,5 @@
 // Shadow edges on a receiver (Wang et al., "Using A-Buffer in Radiosity", Algorithm 3,
-// ProjectShadowEdge), with VE wedges for area lights (ALGORITHMS.md section 5).
+// ProjectShadowEdge), with VE wedges for area lights (docs/algorithms.md#shadow-edges).
 //
 // Method. Every event is a segment in the receiver's plane with a parameter along it, and
 // every condition on it (inside the receiver, in front of the light, below the light point,

@@ -1,5 +1,6 @@
 #pragma once
-// Writers for baked meshes: PLY (the contract in DESIGN.md) and OBJ with an MTL.
+// Writers for baked meshes: PLY (the contract in docs/design.md#exported-ply-contract),
+// OBJ with an MTL, POV-Ray scenes and glTF.
 // Namespace `abrad::exporter` because `export` is a C++ keyword.
 
 #include <array>

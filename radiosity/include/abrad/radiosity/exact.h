@@ -2,7 +2,7 @@
 // Exact direct illumination at a point from a Lambertian polygonal light with polygonal
 // occluders: the light clipped to the point's hemisphere, minus the central projections of
 // the occluders onto the light's plane, through Lambert's point-to-polygon form factor
-// (Baum, Rushmeier & Winget 1989; ALGORITHMS.md section 7).
+// (Baum, Rushmeier & Winget 1989; docs/algorithms.md#exact-form-factors).
 //
 // Numeric assumptions: projections and polygon differences are constructed in double
 // precision (not exact); occluder points within a relative 1e-9 of the light's plane or of

@@ -1,7 +1,7 @@
 #pragma once
-// The field error (ALGORITHMS.md section 8): the Gouraud-interpolated irradiance of a baked
-// mesh against the exact irradiance at points inside its triangles, area-weighted relative
-// L1 over all receivers.
+// The field error (docs/algorithms.md#field-error): the Gouraud-interpolated irradiance of a
+// baked mesh against the exact irradiance at points inside its triangles, area-weighted
+// relative L1 over all receivers.
 
 #include <cstddef>
 #include <functional>

@@ -1,8 +1,8 @@
 #pragma once
 // Shadow edges (Wang et al., "Using A-Buffer in Radiosity", Algorithm 3, ProjectShadowEdge;
-// ALGORITHMS.md section 5): occluder edges projected from points of a light onto a receiver
-// triangle's plane, clipped to the receiver, with the parts hidden by other opaque occluders
-// removed (translucent occluders let them pass).
+// docs/algorithms.md#shadow-edges): occluder edges projected from points of a light onto a
+// receiver triangle's plane, clipped to the receiver, with the parts hidden by other opaque
+// occluders removed (translucent occluders let them pass).
 
 #include <cstdint>
 #include <glm/vec3.hpp>
@@ -43,8 +43,9 @@ struct ShadowStats {
 /// The shadow edges that `occluders` cast on `receiver` from `light` (front faces
 /// counter-clockwise; the light emits from its front). Only the part of the receiver in
 /// front of the light and facing it is considered. An occluder edge shared by two occluders
-/// is projected once, and not at all when it is no silhouette from the light point (both
-/// faces on one side, same opacity). Segments shorter than `min_length` metres are dropped.
+/// is projected once, and not at all when it is no silhouette from the light point (its two
+/// faces, of the same opacity, lie on opposite sides of the plane through the light point and
+/// the edge). Segments shorter than `min_length` metres are dropped.
 std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, const Patch& receiver,
                                         std::span<const Patch* const> occluders,
                                         double min_length = 1e-9, ShadowStats* stats = nullptr);
