@@ -36,6 +36,103 @@ inline double left_of(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2
     return (b.x - a.x) * (v.y - a.y) - (b.y - a.y) * (v.x - a.x);
 }
 
+// The light's plane (point l0, unit front normal nl, 2D frame e1, e2 counter-clockwise seen
+// from the front) and the receiving point x at height sx above it.
+struct LightPlane {
+    glm::dvec3 l0, nl, e1, e2, x, n;
+    double sx, scale;
+
+    glm::dvec2 to2(const glm::dvec3& q) const {
+        const glm::dvec3 d = q - l0;
+        return glm::dvec2(glm::dot(d, e1), glm::dot(d, e2));
+    }
+    glm::dvec3 to3(const glm::dvec2& q) const { return l0 + q.x * e1 + q.y * e2; }
+};
+
+// The shadow of `occ` seen from x on the light plane, counter-clockwise; false when the
+// occluder cannot block any of the light from x.
+bool occluder_shadow(const LightPlane& lp, const Patch& occ, Poly2& shadow) {
+    const glm::dvec3 x = lp.x, n = lp.n, l0 = lp.l0, nl = lp.nl;
+    const double sx = lp.sx;
+    // Quick rejection: a blocking point lies strictly above x's tangent plane and strictly
+    // between x and the light's plane (0 < r < 1, r = s(p)/s(x))
+    constexpr double kEps = 1e-9;
+    bool above = false, below_light = false, beyond_x = false;
+    for (const auto& p : occ.p) {
+        const double r = glm::dot(p - l0, nl) / sx;
+        above = above || glm::dot(p - x, n) > 0.0;
+        below_light = below_light || r < 1.0 - kEps;
+        beyond_x = beyond_x || r > kEps;
+    }
+    if (!above || !below_light || !beyond_x) return false;
+    // Keep the part of the occluder strictly between the light plane and x:
+    // r in (eps, 1 - eps)
+    Polygon3 part;
+    for (const auto& p : occ.p) part.push_back(p);
+    part =
+        clip_polygon(part, [&](const glm::dvec3& p) { return glm::dot(p - l0, nl) / sx - kEps; });
+    part = clip_polygon(
+        part, [&](const glm::dvec3& p) { return (1.0 - kEps) - glm::dot(p - l0, nl) / sx; });
+    if (part.size() < 3) return false;
+    // Central projection from x onto the light plane
+    shadow.clear();
+    for (const auto& p : part) {
+        const double sp = glm::dot(p - l0, nl);
+        shadow.push_back(lp.to2(x + (p - x) * (sx / (sx - sp))));
+    }
+    const double a2 = signed_area2(shadow);
+    if (std::abs(a2) <= 1e-18 * lp.scale * lp.scale) return false;
+    if (a2 < 0.0) {  // make it counter-clockwise
+        Poly2 rev;
+        for (std::size_t i = shadow.size(); i-- > 0;) rev.push_back(shadow[i]);
+        shadow = rev;
+    }
+    return true;
+}
+
+// Subtracts the convex `shadow` (letting `transmit` of the light through) from every piece it
+// overlaps; the result goes to `next`. True when the shadow covered some piece.
+bool subtract_shadow(std::vector<Piece>& pieces, const Poly2& shadow, double transmit,
+                     std::vector<Piece>& next) {
+    glm::dvec2 slo = shadow[0], shi = shadow[0];
+    for (const auto& v : shadow) {
+        slo = glm::min(slo, v);
+        shi = glm::max(shi, v);
+    }
+    next.clear();
+    bool touched = false;
+    for (Piece& piece : pieces) {
+        if (piece.hi.x <= slo.x || piece.lo.x >= shi.x || piece.hi.y <= slo.y ||
+            piece.lo.y >= shi.y) {
+            next.push_back(std::move(piece));
+            continue;
+        }
+        Poly2 rest = piece.poly;
+        for (std::size_t k = 0; k < shadow.size() && rest.size() >= 3; ++k) {
+            const glm::dvec2 a = shadow[k], b = shadow[(k + 1) % shadow.size()];
+            // The part of _rest_ outside this edge is visible past the occluder
+            Poly2 outside =
+                clip_polygon(rest, [&](const glm::dvec2& v) { return -left_of(a, b, v); });
+            if (outside.size() >= 3 && std::abs(signed_area2(outside)) > 0.0) {
+                Piece p{outside, piece.weight, {}, {}};
+                bound(p);
+                next.push_back(p);
+            }
+            rest = clip_polygon(rest, [&](const glm::dvec2& v) { return left_of(a, b, v); });
+        }
+        if (rest.size() >= 3 && std::abs(signed_area2(rest)) > 0.0) {
+            touched = true;
+            if (transmit > 0.0) {
+                Piece p{rest, piece.weight * transmit, {}, {}};
+                bound(p);
+                next.push_back(p);
+            }
+        }
+    }
+    pieces.swap(next);
+    return touched;
+}
+
 }  // namespace
 
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
@@ -58,94 +155,21 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
 
     // 2D frame (e1, e2) in the light plane, counter-clockwise seen from the front
     const glm::dvec3 e1 = glm::normalize(light.p[1] - l0);
-    const glm::dvec3 e2 = glm::cross(nl, e1);
-    auto to2 = [&](const glm::dvec3& q) {
-        const glm::dvec3 d = q - l0;
-        return glm::dvec2(glm::dot(d, e1), glm::dot(d, e2));
-    };
-    auto to3 = [&](const glm::dvec2& q) { return l0 + q.x * e1 + q.y * e2; };
+    const LightPlane lp{l0, nl, e1, glm::cross(nl, e1), x, n, sx, scale};
 
     std::vector<Piece> pieces(1);
-    for (const auto& q : lit) pieces[0].poly.push_back(to2(q));
+    for (const auto& q : lit) pieces[0].poly.push_back(lp.to2(q));
     pieces[0].weight = 1.0;
     bound(pieces[0]);
 
     std::vector<Piece> next;
+    Poly2 shadow;
     for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
         const Patch* occ = occluders[oi];
         if (stats) ++stats->occluders_tested;
-        // Quick rejection: a blocking point lies strictly above x's tangent plane and strictly
-        // between x and the light's plane (0 < r < 1, r = s(p)/s(x))
-        constexpr double kEps = 1e-9;
-        bool above = false, below_light = false, beyond_x = false;
-        for (const auto& p : occ->p) {
-            const double r = glm::dot(p - l0, nl) / sx;
-            above = above || glm::dot(p - x, n) > 0.0;
-            below_light = below_light || r < 1.0 - kEps;
-            beyond_x = beyond_x || r > kEps;
-        }
-        if (!above || !below_light || !beyond_x) continue;
-        // Keep the part of the occluder strictly between the light plane and x:
-        // r in (eps, 1 - eps)
-        Polygon3 part;
-        for (const auto& p : occ->p) part.push_back(p);
-        part = clip_polygon(part,
-                            [&](const glm::dvec3& p) { return glm::dot(p - l0, nl) / sx - kEps; });
-        part = clip_polygon(
-            part, [&](const glm::dvec3& p) { return (1.0 - kEps) - glm::dot(p - l0, nl) / sx; });
-        if (part.size() < 3) continue;
-        // Central projection from x onto the light plane
-        Poly2 shadow;
-        for (const auto& p : part) {
-            const double sp = glm::dot(p - l0, nl);
-            shadow.push_back(to2(x + (p - x) * (sx / (sx - sp))));
-        }
-        const double a2 = signed_area2(shadow);
-        if (std::abs(a2) <= 1e-18 * scale * scale) continue;
-        if (a2 < 0.0) {  // make it counter-clockwise
-            Poly2 rev;
-            for (std::size_t i = shadow.size(); i-- > 0;) rev.push_back(shadow[i]);
-            shadow = rev;
-        }
-        glm::dvec2 slo = shadow[0], shi = shadow[0];
-        for (const auto& v : shadow) {
-            slo = glm::min(slo, v);
-            shi = glm::max(shi, v);
-        }
+        if (!occluder_shadow(lp, *occ, shadow)) continue;
         const double transmit = 1.0 - std::clamp(occ->opacity, 0.0, 1.0);
-
-        // Subtract the convex shadow from every piece it overlaps
-        next.clear();
-        bool touched = false;
-        for (Piece& piece : pieces) {
-            if (piece.hi.x <= slo.x || piece.lo.x >= shi.x || piece.hi.y <= slo.y ||
-                piece.lo.y >= shi.y) {
-                next.push_back(std::move(piece));
-                continue;
-            }
-            Poly2 rest = piece.poly;
-            for (std::size_t k = 0; k < shadow.size() && rest.size() >= 3; ++k) {
-                const glm::dvec2 a = shadow[k], b = shadow[(k + 1) % shadow.size()];
-                // The part of _rest_ outside this edge is visible past the occluder
-                Poly2 outside =
-                    clip_polygon(rest, [&](const glm::dvec2& v) { return -left_of(a, b, v); });
-                if (outside.size() >= 3 && std::abs(signed_area2(outside)) > 0.0) {
-                    Piece p{outside, piece.weight, {}, {}};
-                    bound(p);
-                    next.push_back(p);
-                }
-                rest = clip_polygon(rest, [&](const glm::dvec2& v) { return left_of(a, b, v); });
-            }
-            if (rest.size() >= 3 && std::abs(signed_area2(rest)) > 0.0) {
-                touched = true;
-                if (transmit > 0.0) {
-                    Piece p{rest, piece.weight * transmit, {}, {}};
-                    bound(p);
-                    next.push_back(p);
-                }
-            }
-        }
-        pieces.swap(next);
+        const bool touched = subtract_shadow(pieces, shadow, transmit, next);
         if (touched && stats) {
             ++stats->occluders_projected;
             if (stats->touched) stats->touched->push_back(static_cast<std::uint32_t>(oi));
@@ -158,7 +182,7 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
     double ff = 0.0;
     glm::dvec3 corners[32];
     for (const Piece& piece : pieces) {
-        for (std::size_t i = 0; i < piece.poly.size(); ++i) corners[i] = to3(piece.poly[i]);
+        for (std::size_t i = 0; i < piece.poly.size(); ++i) corners[i] = lp.to3(piece.poly[i]);
         ff += piece.weight * point_polygon_form_factor(x, n, {corners, piece.poly.size()});
     }
     return ff;

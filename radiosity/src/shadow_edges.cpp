@@ -212,14 +212,8 @@ struct CutterView {
     std::array<double, 3> cone_tol;
 };
 
-// Segments cast by the point light L (EV events).
-void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& groups,
-               std::vector<ShadowSegment>& out, ShadowStats& st) {
-    const double hl = height(c, L);
-    if (hl <= c.tol) return;  // L on or behind the receiver's plane
-    const double h_top = hl * (1.0 - kNearLight);
-
-    // Cutters as seen from L: skip those that no segment from L to the receiver can cross
+// Cutters as seen from L: those that some segment from L to the receiver can cross.
+std::vector<CutterView> cutter_views(const Context& c, const dvec3& L, double hl) {
     std::vector<CutterView> views;
     views.reserve(c.cutters.size());
     for (std::size_t k = 0; k < c.cutters.size(); ++k) {
@@ -241,6 +235,70 @@ void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& g
         }
         views.push_back(v);
     }
+    return views;
+}
+
+// The occluder edge pq (heights hp, hq) seen from L (height hl), in parameter t along pq.
+struct EdgeFromLight {
+    dvec3 L, p, q;
+    double hl, hp, hq;
+
+    // The receiver point L casts the edge point at t onto
+    dvec3 project(double t) const {
+        const dvec3 pt = p + t * (q - p);
+        const double h = hp + t * (hq - hp);
+        return (hl * pt - h * L) / (hl - h);
+    }
+};
+
+// The part `hs` of `s` that cutter v hides from L (strictly inside its shadow volume by the
+// tolerance, so that touching occluders do not cut, and bounded exactly); false when none.
+bool hidden_by(const Context& c, const CutterView& v, const EdgeFromLight& e, const Span& s,
+               Span& hs) {
+    hs = s;
+    Span strict = s;
+    bool inside = true;
+    const double dtol = kRel * e.hl * c.scale;
+    for (int k = 0; k < 4 && inside; ++k) {
+        double f0, f1, tol;
+        if (k == 3) {
+            // Beyond the occluder's plane, seen from L
+            const double dp = glm::dot(e.p - v.o0, v.normal);
+            const double dq = glm::dot(e.q - v.o0, v.normal);
+            f0 = -v.side * (e.hl * dp - e.hp * v.dist_l);
+            f1 = -v.side * (e.hl * dq - e.hq * v.dist_l);
+            tol = dtol;
+        } else {
+            // Inside the cone from L through the occluder
+            f0 = glm::dot(v.cone[k], e.p - e.L);
+            f1 = glm::dot(v.cone[k], e.q - e.L);
+            tol = v.cone_tol[k];
+        }
+        inside = keep_where(strict, f0, f1, tol) && keep_where(hs, f0, f1, 0.0);
+    }
+    return inside && glm::length(e.project(strict.hi) - e.project(strict.lo)) > c.tol;
+}
+
+// The parameter span of edge e whose shadow from L falls on the lit receiver (the slab
+// 0 <= h <= h_top, then the receiver region); false when empty.
+bool lit_span(const Context& c, const EdgeFromLight& e, double h_top, Span& s) {
+    s = Span{0.0, 1.0};
+    if (!keep_where(s, e.hp, e.hq, 0.0) || !keep_where(s, h_top - e.hp, h_top - e.hq, 0.0))
+        return false;
+    for (const Affine& f : c.region) {
+        const double fl = f(e.L);
+        if (!keep_where(s, e.hl * f(e.p) - e.hp * fl, e.hl * f(e.q) - e.hq * fl, 0.0)) return false;
+    }
+    return true;
+}
+
+// Segments cast by the point light L (EV events).
+void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& groups,
+               std::vector<ShadowSegment>& out, ShadowStats& st) {
+    const double hl = height(c, L);
+    if (hl <= c.tol) return;  // L on or behind the receiver's plane
+    const double h_top = hl * (1.0 - kNearLight);
+    const std::vector<CutterView> views = cutter_views(c, L, hl);
 
     std::vector<Span> vis;
     for (const EdgeGroup& g : groups) {
@@ -264,57 +322,23 @@ void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& g
         ++st.edges_projected;
 
         // Clip the edge to the slab 0 <= h <= h_top and its projection to the lit receiver
-        Span s{0.0, 1.0};
-        if (!keep_where(s, hp, hq, 0.0) || !keep_where(s, h_top - hp, h_top - hq, 0.0)) continue;
-        bool empty = false;
-        for (const Affine& f : c.region) {
-            const double fl = f(L);
-            if (!keep_where(s, hl * f(p) - hp * fl, hl * f(q) - hq * fl, 0.0)) {
-                empty = true;
-                break;
-            }
-        }
-        if (empty) continue;
-        auto project = [&](double t) {
-            const dvec3 pt = p + t * (q - p);
-            const double h = hp + t * (hq - hp);
-            return (hl * pt - h * L) / (hl - h);
-        };
+        const EdgeFromLight e{L, p, q, hl, hp, hq};
+        Span s;
+        if (!lit_span(c, e, h_top, s)) continue;
         const double keep_len = std::max(c.min_length, c.tol);
-        if (glm::length(project(s.hi) - project(s.lo)) < keep_len) continue;
+        if (glm::length(e.project(s.hi) - e.project(s.lo)) < keep_len) continue;
 
         // Remove the parts hidden from L by other opaque occluders
         vis.assign(1, s);
         for (const CutterView& v : views) {
             if (std::find(g.tris.begin(), g.tris.end(), v.occ_index) != g.tris.end()) continue;
-            // Hidden interval: strictly inside the shadow volume by the tolerance (so that
-            // touching occluders do not cut), bounded exactly (tolerance 0)
-            Span hs = s, strict = s;
-            bool inside = true;
-            const double dtol = kRel * hl * c.scale;
-            for (int k = 0; k < 4 && inside; ++k) {
-                double f0, f1, tol;
-                if (k == 3) {
-                    // Beyond the occluder's plane, seen from L
-                    const double dp = glm::dot(p - v.o0, v.normal);
-                    const double dq = glm::dot(q - v.o0, v.normal);
-                    f0 = -v.side * (hl * dp - hp * v.dist_l);
-                    f1 = -v.side * (hl * dq - hq * v.dist_l);
-                    tol = dtol;
-                } else {
-                    // Inside the cone from L through the occluder
-                    f0 = glm::dot(v.cone[k], p - L);
-                    f1 = glm::dot(v.cone[k], q - L);
-                    tol = v.cone_tol[k];
-                }
-                inside = keep_where(strict, f0, f1, tol) && keep_where(hs, f0, f1, 0.0);
-            }
-            if (!inside || glm::length(project(strict.hi) - project(strict.lo)) <= c.tol) continue;
+            Span hs;
+            if (!hidden_by(c, v, e, s, hs)) continue;
             if (subtract(vis, hs)) ++st.segments_split;
             if (vis.empty()) break;
         }
         for (const Span& piece : vis) {
-            const dvec3 a = project(piece.lo), b = project(piece.hi);
+            const dvec3 a = e.project(piece.lo), b = e.project(piece.hi);
             if (glm::length(b - a) >= keep_len) out.push_back({a, b});
         }
     }
@@ -399,6 +423,85 @@ bool fan_surrounds(const Context& c, const std::vector<VRec>& verts, std::size_t
     return reach >= twopi - ang_tol;
 }
 
+// The plane of the wedge through the light edge ab and the occluder vertex v, with 2D
+// coordinates (origin v, x along ab) and the receiver trace xa + u·e of the wedge.
+struct Wedge {
+    dvec3 v, nw, ex, ey;
+    dvec2 xa2, e2;
+    double tol;
+
+    dvec2 to2(const dvec3& w) const { return dvec2(glm::dot(w - v, ex), glm::dot(w - v, ey)); }
+
+    // u of the receiver point on the line from v through w
+    bool u_of(const dvec2& w, double& u) const {
+        const double den = cross2(e2, w);
+        if (std::sqrt(w.x * w.x + w.y * w.y) <= tol || std::abs(den) <= 1e-300) return false;
+        u = cross2(w, xa2) / den;
+        return std::isfinite(u);
+    }
+};
+
+// The trace σ = [s0, s1] of occluder o on the wedge plane, in wedge coordinates; false when o
+// does not cross the plane (or lies in it: measure zero, not handled).
+bool occluder_trace(const Patch& o, const Wedge& w, dvec2& s0, dvec2& s1) {
+    std::array<double, 3> d{};
+    for (int m = 0; m < 3; ++m) d[m] = glm::dot(o.p[m] - w.v, w.nw);
+    const double tol = w.tol;
+    if ((d[0] > tol && d[1] > tol && d[2] > tol) || (d[0] < -tol && d[1] < -tol && d[2] < -tol))
+        return false;
+    if (std::abs(d[0]) <= tol && std::abs(d[1]) <= tol && std::abs(d[2]) <= tol) return false;
+    std::array<dvec3, 4> pts{};
+    int np = 0;
+    for (int m = 0; m < 3 && np < 4; ++m) {
+        const int n = (m + 1) % 3;
+        if (std::abs(d[m]) <= tol) pts[np++] = o.p[m];
+        if ((d[m] > tol && d[n] < -tol) || (d[m] < -tol && d[n] > tol)) {
+            if (np < 4) pts[np++] = o.p[m] + (o.p[n] - o.p[m]) * (d[m] / (d[m] - d[n]));
+        }
+    }
+    if (np < 2) return false;
+    // The two farthest points span σ
+    s0 = w.to2(pts[0]);
+    s1 = w.to2(pts[1]);
+    double best = -1.0;
+    for (int m = 0; m < np; ++m)
+        for (int n = m + 1; n < np; ++n) {
+            const dvec2 u = w.to2(pts[m]), x = w.to2(pts[n]);
+            const double dd = glm::dot(x - u, x - u);
+            if (dd > best) best = dd, s0 = u, s1 = x;
+        }
+    return true;
+}
+
+// Removes from `vis` (parameter spans of the wedge's receiver trace, of length elen) what the
+// cutters not incident to v (verts[first, last)) hide inside the two swept triangles.
+void cut_wedge(const Context& c, const Wedge& w, const std::vector<VRec>& verts, std::size_t first,
+               std::size_t last, const std::array<std::array<dvec2, 3>, 2>& sweep, double elen,
+               std::vector<Span>& vis, ShadowStats& st) {
+    for (std::size_t k = 0; k < c.cutters.size(); ++k) {
+        const Patch& o = *c.cutters[k].patch;
+        bool incident = false;
+        for (std::size_t m = first; m < last; ++m) incident |= verts[m].tri == c.cutter_of[k];
+        if (incident || has_vertex(o, w.v)) continue;
+        dvec2 s0, s1;
+        if (!occluder_trace(o, w, s0, s1)) continue;
+        for (const auto& tri : sweep) {
+            // σ strictly inside the swept triangle by the tolerance, bounded exactly
+            dvec2 w0 = s0, w1 = s1, t0 = s0, t1 = s1;
+            if (!clip_to_triangle(t0, t1, tri, c.tol) || !clip_to_triangle(w0, w1, tri, 0.0))
+                continue;
+            const dvec2 dt = t1 - t0;
+            if (std::sqrt(dt.x * dt.x + dt.y * dt.y) <= c.tol) continue;
+            double u0 = 0.0, u1 = 0.0;
+            if (!w.u_of(w0, u0) || !w.u_of(w1, u1)) continue;
+            const Span hs{std::min(u0, u1), std::max(u0, u1)};
+            if ((hs.hi - hs.lo) * elen <= c.tol) continue;
+            if (subtract(vis, hs)) ++st.segments_split;
+        }
+        if (vis.empty()) break;
+    }
+}
+
 // Segments of the wedges through the light edge ab and each occluder vertex (VE events).
 void ve_events(const Context& c, const dvec3& a, const dvec3& b, const std::vector<VRec>& verts,
                std::vector<ShadowSegment>& out, ShadowStats& st) {
@@ -444,68 +547,21 @@ void ve_events(const Context& c, const dvec3& a, const dvec3& b, const std::vect
         const dvec3 wn = glm::cross(b - a, v - a);
         const double wl = glm::length(wn);
         if (!(wl > c.tol * glm::length(b - a))) continue;
-        const dvec3 nw = wn / wl;
-        const dvec3 ex = glm::normalize(b - a), ey = glm::cross(nw, ex);
-        auto to2 = [&](const dvec3& w) { return dvec2(glm::dot(w - v, ex), glm::dot(w - v, ey)); };
-        const dvec2 xa2 = to2(xa), e2 = to2(xb) - xa2;
+        const dvec3 nw = wn / wl, ex = glm::normalize(b - a);
+        Wedge w{.v = v,
+                .nw = nw,
+                .ex = ex,
+                .ey = glm::cross(nw, ex),
+                .xa2 = dvec2(0.0),
+                .e2 = dvec2(0.0),
+                .tol = c.tol};
+        w.xa2 = w.to2(xa);
+        w.e2 = w.to2(xb) - w.xa2;
         const std::array<std::array<dvec2, 3>, 2> sweep{
-            {{to2(a), to2(b), dvec2(0.0)}, {dvec2(0.0), xa2, to2(xb)}}};
-        // u of the receiver point on the line from v through w
-        auto u_of = [&](const dvec2& w, double& u) {
-            const double den = cross2(e2, w);
-            if (std::sqrt(w.x * w.x + w.y * w.y) <= c.tol || std::abs(den) <= 1e-300) return false;
-            u = cross2(w, xa2) / den;
-            return std::isfinite(u);
-        };
+            {{w.to2(a), w.to2(b), dvec2(0.0)}, {dvec2(0.0), w.xa2, w.to2(xb)}}};
 
         vis.assign(1, s);
-        for (std::size_t k = 0; k < c.cutters.size(); ++k) {
-            const Patch& o = *c.cutters[k].patch;
-            bool incident = false;
-            for (std::size_t m = first; m < j; ++m) incident |= verts[m].tri == c.cutter_of[k];
-            if (incident || has_vertex(o, v)) continue;
-            // The occluder's trace σ on the wedge plane
-            std::array<double, 3> d{};
-            for (int m = 0; m < 3; ++m) d[m] = glm::dot(o.p[m] - v, nw);
-            if ((d[0] > c.tol && d[1] > c.tol && d[2] > c.tol) ||
-                (d[0] < -c.tol && d[1] < -c.tol && d[2] < -c.tol))
-                continue;
-            if (std::abs(d[0]) <= c.tol && std::abs(d[1]) <= c.tol && std::abs(d[2]) <= c.tol)
-                continue;  // occluder in the wedge plane: measure zero, not handled
-            std::array<dvec3, 4> pts{};
-            int np = 0;
-            for (int m = 0; m < 3 && np < 4; ++m) {
-                const int n = (m + 1) % 3;
-                if (std::abs(d[m]) <= c.tol) pts[np++] = o.p[m];
-                if ((d[m] > c.tol && d[n] < -c.tol) || (d[m] < -c.tol && d[n] > c.tol)) {
-                    if (np < 4) pts[np++] = o.p[m] + (o.p[n] - o.p[m]) * (d[m] / (d[m] - d[n]));
-                }
-            }
-            if (np < 2) continue;
-            // The two farthest points span σ
-            dvec2 s0 = to2(pts[0]), s1 = to2(pts[1]);
-            double best = -1.0;
-            for (int m = 0; m < np; ++m)
-                for (int n = m + 1; n < np; ++n) {
-                    const dvec2 u = to2(pts[m]), w = to2(pts[n]);
-                    const double dd = glm::dot(w - u, w - u);
-                    if (dd > best) best = dd, s0 = u, s1 = w;
-                }
-            for (const auto& tri : sweep) {
-                // σ strictly inside the swept triangle by the tolerance, bounded exactly
-                dvec2 w0 = s0, w1 = s1, t0 = s0, t1 = s1;
-                if (!clip_to_triangle(t0, t1, tri, c.tol) || !clip_to_triangle(w0, w1, tri, 0.0))
-                    continue;
-                const dvec2 dt = t1 - t0;
-                if (std::sqrt(dt.x * dt.x + dt.y * dt.y) <= c.tol) continue;
-                double u0 = 0.0, u1 = 0.0;
-                if (!u_of(w0, u0) || !u_of(w1, u1)) continue;
-                const Span hs{std::min(u0, u1), std::max(u0, u1)};
-                if ((hs.hi - hs.lo) * elen <= c.tol) continue;
-                if (subtract(vis, hs)) ++st.segments_split;
-            }
-            if (vis.empty()) break;
-        }
+        cut_wedge(c, w, verts, first, j, sweep, elen, vis, st);
         for (const Span& piece : vis) {
             const dvec3 p = xa + piece.lo * e, q = xa + piece.hi * e;
             if (glm::length(q - p) >= keep_len) out.push_back({p, q});
