@@ -11,10 +11,16 @@ namespace abrad::convert {
 
 namespace {
 
-const std::vector<std::string>& assimp_extensions() {
-    static const std::vector<std::string> kExtensions = {"gltf", "glb", "3ds", "dae", "fbx",
-                                                         "dxf",  "ifc", "stl", "ply", "off"};
-    return kExtensions;
+constexpr const char* kNeedsOpenCascade =
+    "STEP and IGES need OpenCASCADE, which this build does not include; "
+    "export the model as IFC, glTF or OBJ";
+
+// The format whose extensions include `ext`, or null.
+const ModelFormat* format_of(const std::string& ext) {
+    for (const ModelFormat& f : model_formats())
+        if (std::find(f.extensions.begin(), f.extensions.end(), ext) != f.extensions.end())
+            return &f;
+    return nullptr;
 }
 
 std::string lower_extension(const std::filesystem::path& path) {
@@ -47,9 +53,29 @@ ImportResult import_obj(const std::filesystem::path& path, const ImportOptions& 
     return finish(std::move(raw), options, std::move(result));
 }
 
+const std::vector<ModelFormat>& model_formats() {
+    static const std::vector<ModelFormat> kFormats = {
+        {"OBJ", {"obj"}, ModelReader::Obj, ""},
+        {"glTF", {"gltf", "glb"}, ModelReader::Assimp, ""},
+        {"3DS", {"3ds"}, ModelReader::Assimp, ""},
+        {"Collada", {"dae"}, ModelReader::Assimp, ""},
+        {"FBX", {"fbx"}, ModelReader::Assimp, ""},
+        {"DXF", {"dxf"}, ModelReader::Assimp, ""},
+        {"IFC", {"ifc"}, ModelReader::Assimp, ""},
+        {"STL", {"stl"}, ModelReader::Assimp, ""},
+        {"PLY", {"ply"}, ModelReader::Assimp, ""},
+        {"OFF", {"off"}, ModelReader::Assimp, ""},
+        {"STEP", {"step", "stp"}, ModelReader::Unavailable, kNeedsOpenCascade},
+        {"IGES", {"iges", "igs"}, ModelReader::Unavailable, kNeedsOpenCascade},
+    };
+    return kFormats;
+}
+
 std::vector<std::string> supported_extensions() {
-    std::vector<std::string> all{"obj"};
-    for (const std::string& e : assimp_extensions()) all.push_back(e);
+    std::vector<std::string> all;
+    for (const ModelFormat& f : model_formats())
+        if (f.reader != ModelReader::Unavailable)
+            all.insert(all.end(), f.extensions.begin(), f.extensions.end());
     return all;
 }
 
@@ -58,22 +84,24 @@ ImportResult import_model(const std::filesystem::path& path, const ImportOptions
     const std::string file = path.string();
     ImportResult result;
     detail::RawModel raw;
-    if (ext == "obj") {
-        raw = detail::read_obj(path, options, result.report.notes);
-    } else if (std::find(assimp_extensions().begin(), assimp_extensions().end(), ext) !=
-               assimp_extensions().end()) {
-        raw = detail::read_assimp(path, options, result.report.notes);
-    } else if (ext == "step" || ext == "stp" || ext == "iges" || ext == "igs") {
-        throw ImportError(file, 0,
-                          "STEP and IGES need OpenCASCADE, which this build does not include; "
-                          "export the model as IFC, glTF or OBJ");
-    } else {
+    const ModelFormat* format = format_of(ext);
+    if (!format) {
         std::string known;
         for (const std::string& e : supported_extensions())
             known += (known.empty() ? "" : ", ") + e;
         throw ImportError(file, 0,
                           "unknown model format '" + (ext.empty() ? std::string("(none)") : ext) +
                               "' (abrad reads " + known + ")");
+    }
+    switch (format->reader) {
+        case ModelReader::Obj:
+            raw = detail::read_obj(path, options, result.report.notes);
+            break;
+        case ModelReader::Assimp:
+            raw = detail::read_assimp(path, options, result.report.notes);
+            break;
+        case ModelReader::Unavailable:
+            throw ImportError(file, 0, format->note);
     }
     return finish(std::move(raw), options, std::move(result));
 }

@@ -22,6 +22,7 @@
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <filesystem>
@@ -249,6 +250,38 @@ bool indices_below(const std::vector<glm::u32vec3>& triangles, std::size_t verte
     });
 }
 
+// Whose fault a SQLite error is: the system's (disk full, I/O, locks held by another
+// process, memory, a file that cannot be opened or written) or the file's (everything else:
+// corrupt, not a database, constraint violations).
+StoreError::Kind kind_of(int result_code) {
+    switch (result_code & 0xff) {
+        case SQLITE_FULL:
+        case SQLITE_IOERR:
+        case SQLITE_BUSY:
+        case SQLITE_LOCKED:
+        case SQLITE_NOMEM:
+        case SQLITE_CANTOPEN:
+        case SQLITE_PERM:
+        case SQLITE_READONLY:
+        case SQLITE_NOLFS:
+        case SQLITE_PROTOCOL:
+        case SQLITE_INTERRUPT:
+            return StoreError::Kind::Failure;
+        default:
+            return StoreError::Kind::BadInput;
+    }
+}
+
+// The busy timeout: ABRAD_BUSY_TIMEOUT_MS when set to a number >= 0, else kBusyTimeoutMs.
+int busy_timeout_ms() {
+    const char* text = std::getenv("ABRAD_BUSY_TIMEOUT_MS");
+    if (text == nullptr) return kBusyTimeoutMs;
+    int ms = 0;
+    const char* end = text + std::strlen(text);
+    const auto [ptr, ec] = std::from_chars(text, end, ms);
+    return ec == std::errc() && ptr == end && ms >= 0 ? ms : kBusyTimeoutMs;
+}
+
 // ---------------------------------------------------------------------------------------
 // RAII wrappers of the SQLite C API
 
@@ -266,13 +299,15 @@ class Connection {
     const std::string& path() const { return m_path; }
 
     // "PATH: what"
-    [[noreturn]] void fail(std::string_view what) const {
-        throw StoreError(m_path + ": " + std::string(what));
+    [[noreturn]] void fail(std::string_view what,
+                           StoreError::Kind kind = StoreError::Kind::BadInput) const {
+        throw StoreError(m_path + ": " + std::string(what), kind);
     }
 
-    // "PATH: what: <SQLite's message>"
+    // "PATH: what: <SQLite's message>", of the kind the connection's last result code calls for
     [[noreturn]] void fail_sqlite(std::string_view what) const {
-        fail(std::string(what) + ": " + sqlite3_errmsg(m_db.get()));
+        fail(std::string(what) + ": " + sqlite3_errmsg(m_db.get()),
+             kind_of(sqlite3_extended_errcode(m_db.get())));
     }
 
     void exec(const char* sql, std::string_view what) const {
@@ -280,7 +315,7 @@ class Connection {
         if (sqlite3_exec(m_db.get(), sql, nullptr, nullptr, &message) != SQLITE_OK) {
             std::string text = message != nullptr ? message : sqlite3_errmsg(m_db.get());
             sqlite3_free(message);
-            fail(std::string(what) + ": " + text);
+            fail(std::string(what) + ": " + text, kind_of(sqlite3_extended_errcode(m_db.get())));
         }
     }
 
@@ -360,7 +395,8 @@ class Statement {
     void check_bind(int rc) const {
         if (rc != SQLITE_OK) {
             m_connection.fail(std::string("cannot bind a value of '") + sqlite3_sql(m_stmt) +
-                              "': " + sqlite3_errstr(rc));
+                                  "': " + sqlite3_errstr(rc),
+                              StoreError::Kind::Failure);
         }
     }
 
@@ -387,7 +423,7 @@ class BlobWriter {
 
     void write(const unsigned char* data, std::size_t size, std::size_t offset) {
         if (size > INT_MAX || offset > static_cast<std::size_t>(INT_MAX) - size) {
-            m_connection.fail("a mesh BLOB is larger than 2 GiB");
+            m_connection.fail("a mesh BLOB is larger than 2 GiB", StoreError::Kind::Failure);
         }
         if (sqlite3_blob_write(m_blob, data, static_cast<int>(size), static_cast<int>(offset)) !=
             SQLITE_OK) {
@@ -558,11 +594,12 @@ Store Store::open(const std::string& path, OpenMode mode) {
     DbHandle db(raw);
     if (rc != SQLITE_OK) {
         throw StoreError(
-            path + ": cannot open: " + (raw != nullptr ? sqlite3_errmsg(raw) : sqlite3_errstr(rc)));
+            path + ": cannot open: " + (raw != nullptr ? sqlite3_errmsg(raw) : sqlite3_errstr(rc)),
+            kind_of(raw != nullptr ? sqlite3_extended_errcode(raw) : rc));
     }
     auto impl = std::make_unique<Impl>(Impl{Connection(std::move(db), path), mode, 0});
     const Connection& c = impl->m_connection;
-    sqlite3_busy_timeout(c.get(), kBusyTimeoutMs);
+    sqlite3_busy_timeout(c.get(), busy_timeout_ms());
     sqlite3_extended_result_codes(c.get(), 1);
 
     // Check what the file is, then set the connection up
@@ -851,7 +888,8 @@ void Store::add_import(const Scene& imported) {
         throw;  // already names the file; the transaction was rolled back on the way out
     } catch (const std::exception& e) {
         std::throw_with_nested(
-            StoreError(c.path() + ": import not written (rolled back): " + e.what()));
+            StoreError(c.path() + ": import not written (rolled back): " + e.what(),
+                       StoreError::Kind::Failure));
     }
 }
 
@@ -983,7 +1021,8 @@ std::int64_t Store::add_bake(const Bake& bake, const std::function<void(double)>
         throw;  // already names the file; the transaction was rolled back on the way out
     } catch (const std::exception& e) {
         std::throw_with_nested(
-            StoreError(c.path() + ": " + label + " not written (rolled back): " + e.what()));
+            StoreError(c.path() + ": " + label + " not written (rolled back): " + e.what(),
+                       StoreError::Kind::Failure));
     }
 }
 

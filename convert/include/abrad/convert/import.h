@@ -10,7 +10,25 @@
 
 namespace abrad::convert {
 
-/// File extensions `import_model` reads (lower case, without the dot).
+/// Which reader reads a model format.
+enum class ModelReader {
+    Obj,          ///< abrad's own strict OBJ/MTL reader
+    Assimp,       ///< Assimp
+    Unavailable,  ///< not in this build: refused with ModelFormat::note
+};
+
+/// One model format: import_model's dispatch and its messages come from the table of these.
+struct ModelFormat {
+    std::string name;                     ///< e.g. "glTF"
+    std::vector<std::string> extensions;  ///< lower case, without the dot
+    ModelReader reader;
+    std::string note;  ///< Unavailable: why and what to do instead
+};
+
+/// Every model format import_model knows, readable ones first, in the order messages list them.
+const std::vector<ModelFormat>& model_formats();
+
+/// File extensions `import_model` reads (lower case, without the dot), in table order.
 std::vector<std::string> supported_extensions();
 
 /// Reads `path` by its extension (case-insensitive): obj through the OBJ reader; gltf, glb,

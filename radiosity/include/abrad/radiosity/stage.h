@@ -17,9 +17,6 @@ class InputError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-/// The bake's name for InputError (the type bakes have always thrown).
-using BakeError = InputError;
-
 /// Progress of long work: a stage label and `done` of `total` units (`total` 0 when the end
 /// is not known in advance, as for shots until convergence). Called from the thread that runs
 /// the stage, or from a worker thread under the stage's lock; it must be cheap.

@@ -17,7 +17,22 @@ namespace abrad::visdb {
 /// An error reading or writing the database; `what()` names the file.
 class StoreError : public std::runtime_error {
   public:
-    using std::runtime_error::runtime_error;
+    /// Whose fault the error is.
+    enum class Kind {
+        BadInput,  ///< the file: missing, not an abrad database, corrupt, wrong schema, no such
+                   ///< bake
+        Failure,   ///< the system: disk full, I/O error, locked by another writer, out of memory,
+                   ///< a file that cannot be created
+    };
+
+    explicit StoreError(const std::string& what, Kind kind = Kind::BadInput)
+        : std::runtime_error(what), m_kind(kind) {}
+
+    /// BadInput or Failure (from the SQLite result code when SQLite reported the error).
+    Kind kind() const { return m_kind; }
+
+  private:
+    Kind m_kind;
 };
 
 /// How to open a database file.
@@ -46,7 +61,9 @@ inline constexpr int kSchemaVersion = 2;
 class Store {
   public:
     /// Opens (or creates) `path`. Throws StoreError naming the path when the file is missing
-    /// (ReadOnly/ReadWrite), is not an abrad database, or has a newer schema version.
+    /// (ReadOnly/ReadWrite), is not an abrad database, or has a newer schema version. A
+    /// connection waits up to 10 s for another process's lock (the environment variable
+    /// ABRAD_BUSY_TIMEOUT_MS overrides that), then fails with kind Failure.
     static Store open(const std::string& path, OpenMode mode);
 
     Store(Store&&) noexcept;

@@ -1,0 +1,149 @@
+// Exit statuses through the command line: 1 for failures of the system (a database locked by
+// another writer, a directory that does not exist), 2 for bad input (a file that is not an
+// abrad database). A failed command leaves the database as it was.
+
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "abrad/visdb/store.h"
+#include "run_abrad.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using abrad::testing::Result;
+Result run(const std::string& args) { return abrad::testing::run_abrad(args); }
+
+std::string bytes(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+class ExitStatus : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        m_dir = fs::temp_directory_path() /
+                ("abrad_exit_" + std::to_string(getpid()) + "_" +
+                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        fs::remove_all(m_dir);
+        fs::create_directories(m_dir);
+        // abrad gives up on a locked database after 200 ms instead of 10 s
+        setenv("ABRAD_BUSY_TIMEOUT_MS", "200", 1);
+    }
+    void TearDown() override {
+        unsetenv("ABRAD_BUSY_TIMEOUT_MS");
+        if (!HasFailure()) fs::remove_all(m_dir);
+    }
+    fs::path path(const std::string& name) const { return m_dir / name; }
+    std::string model() const {
+        return std::string(ABRAD_SAMPLES) + "/paper_simple/paper_occluder.obj";
+    }
+    fs::path m_dir;
+};
+
+TEST_F(ExitStatus, ADatabaseLockedByAnotherWriterIsAFailure) {
+    const fs::path db = path("room.visdb");
+    ASSERT_EQ(run("import " + model() + " --db " + db.string()).status, 0);
+    const std::string before = bytes(db);
+
+    sqlite3* other = nullptr;
+    ASSERT_EQ(sqlite3_open(db.string().c_str(), &other), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(other, "BEGIN EXCLUSIVE", nullptr, nullptr, nullptr), SQLITE_OK);
+    for (const std::string& args :
+         {"bake --bounces 0 --dm off --db " + db.string(),
+          "import " + model() + " --db " + db.string(), "info --db " + db.string()}) {
+        const Result r = run(args);
+        EXPECT_EQ(r.status, 1) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(db.string() + ": "), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find("locked"), std::string::npos) << r.output;
+    }
+    ASSERT_EQ(sqlite3_exec(other, "ROLLBACK", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(other);
+
+    EXPECT_EQ(bytes(db), before);
+    const abrad::visdb::Store store =
+        abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
+    EXPECT_TRUE(store.list_bakes().empty());
+    EXPECT_EQ(store.load_scene().sources.size(), 1u);
+}
+
+TEST_F(ExitStatus, ADatabaseInAMissingDirectoryIsAFailure) {
+    const fs::path db = path("no-such-dir") / "room.visdb";
+    const Result r = run("import " + model() + " --db " + db.string());
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find(db.string() + ": cannot open"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(db));
+}
+
+TEST_F(ExitStatus, AFileThatIsNotADatabaseIsBadInput) {
+    const fs::path db = path("notes.visdb");
+    std::ofstream(db) << "these are not the tables you are looking for\n";
+    const std::string before = bytes(db);
+    for (const std::string& args : {"info --db " + db.string(), "bake --db " + db.string(),
+                                    "import " + model() + " --db " + db.string()}) {
+        const Result r = run(args);
+        EXPECT_EQ(r.status, 2) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(db.string() + ": not an abrad visual database"), std::string::npos)
+            << r.output;
+    }
+    EXPECT_EQ(bytes(db), before);
+}
+
+TEST(StoreErrorKind, FromTheSqliteResult) {
+    const fs::path dir = fs::temp_directory_path() / ("abrad_kind_" + std::to_string(getpid()));
+    try {
+        (void)abrad::visdb::Store::open((dir / "missing" / "x.visdb").string(),
+                                        abrad::visdb::OpenMode::CreateOrOpen);
+        ADD_FAILURE() << "opened a database in a missing directory";
+    } catch (const abrad::visdb::StoreError& e) {
+        EXPECT_EQ(e.kind(), abrad::visdb::StoreError::Kind::Failure) << e.what();
+    }
+    try {
+        (void)abrad::visdb::Store::open((dir / "absent.visdb").string(),
+                                        abrad::visdb::OpenMode::ReadWrite);
+        ADD_FAILURE() << "opened a missing database";
+    } catch (const abrad::visdb::StoreError& e) {
+        EXPECT_EQ(e.kind(), abrad::visdb::StoreError::Kind::BadInput) << e.what();
+    }
+}
+
+}  // namespace
+
+// A bake setting that the chosen settings do not use is bad input naming it (never ignored),
+// before any work: the database is left as it was. The same setting where it is used bakes.
+TEST_F(ExitStatus, BakeSettingsTheBakeDoesNotUseAreBadInput) {
+    const fs::path db = path("room.visdb");
+    ASSERT_EQ(run("import " + model() + " --db " + db.string()).status, 0);
+    const std::string before = bytes(db);
+    const struct {
+        const char* args;
+        const char* named;
+    } cases[] = {{"--bounces 0 --converge 0.01", "--converge"},
+                 {"--bounces 2 --overrelax 1.5", "--overrelax"},
+                 {"--dm off --lights vertices", "--lights"},
+                 {"--dm off --refine-rounds 2", "--refine-rounds"},
+                 {"--refine-rounds 0 --refine-tolerance 0.05", "--refine-tolerance"},
+                 {"--method zbuffer --subpixels 4", "--subpixels"}};
+    for (const auto& c : cases) {
+        const Result r = run("bake --db " + db.string() + " " + c.args);
+        EXPECT_EQ(r.status, 2) << c.args;
+        EXPECT_NE(r.output.find(c.named), std::string::npos) << c.args << ": " << r.output;
+        EXPECT_NE(r.output.find("not used"), std::string::npos) << r.output;
+        EXPECT_EQ(bytes(db), before) << c.args;
+    }
+    // Used: converge with --bounces converge (a coarse, quick bake)
+    EXPECT_EQ(run("bake --db " + db.string() +
+                  " --dm off --bounces converge --converge 0.5 --element-size 2")
+                  .status,
+              0);
+}

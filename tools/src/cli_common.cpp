@@ -1,0 +1,226 @@
+// The shared pieces of the subcommands: see cli_common.h.
+
+#include "cli_common.h"
+
+#include <CLI/CLI.hpp>
+#include <charconv>
+
+#include "abrad/convert/import.h"
+#include "abrad/export/render.h"
+
+namespace abrad::tools::cli {
+
+void bad_input(const std::string& message) { throw CommandError{kExitBadInput, message}; }
+
+void failure(const std::string& message) { throw CommandError{kExitFailure, message}; }
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// ---------------------------------------------------------------------------------------
+// Option groups
+
+void add_model_arguments(CLI::App& app, ImportArgs& a) {
+    std::string formats;
+    for (const std::string& e : convert::supported_extensions())
+        formats += (formats.empty() ? "" : ", ") + e;
+    app.add_option("MODEL", a.models, "Model files: " + formats)->required();
+}
+
+void add_import_options(CLI::App& app, ImportArgs& a) {
+    app.add_option("--unit", a.unit,
+                   "Length unit of the model files (default: the scene file's, else the unit the "
+                   "file declares, else m)")
+        ->check(CLI::IsMember({"mm", "cm", "m", "in", "ft"}));
+    app.add_option("--up", a.up,
+                   "Up axis of the model files, y is rotated to Z up (default: the scene file's, "
+                   "else the format's: glTF y, Collada/FBX as declared, others z)")
+        ->check(CLI::IsMember({"y", "z"}));
+    app.add_option("--weld", a.weld,
+                   "Weld vertices closer than this fraction of the model's bounding-box diagonal "
+                   "(default 1e-6; 0 welds only identical positions)")
+        ->check(CLI::Range(0.0, 1e-2));
+    app.add_option("--scene", a.scene,
+                   "Scene file (TOML): unit, up axis, origin shift, material and light rules by "
+                   "object/layer/material name, emitter rectangles, cameras, exclusions, grids");
+}
+
+void add_bake_options(CLI::App& app, BakeArgs& a) {
+    app.add_option("--name", a.name,
+                   "Name of the stored bake (default bake-<n>; an existing bake "
+                   "of that name is replaced)");
+    app.add_option("--method", a.method,
+                   "Hemicube visibility: abuffer (fragment lists, coverage "
+                   "masks, translucency) or zbuffer (point-sampled item buffer)")
+        ->check(CLI::IsMember({"abuffer", "zbuffer"}))
+        ->capture_default_str();
+    app.add_option("--resolution", a.resolution, "Hemicube resolution R (even, 2..4096)")
+        ->capture_default_str();
+    app.add_option("--subpixels", a.subpixels,
+                   "A-buffer mask side: 4, 8 or 16 (8 = 8x8 = one uint64)")
+        ->capture_default_str();
+    app.add_option("--bounces", a.bounces,
+                   "Interreflection: 0 (direct light only, the paper's "
+                   "setting), converge (shoot from reflecting surfaces until "
+                   "--converge) or a number of bounces")
+        ->capture_default_str();
+    app.add_option("--converge", a.converge,
+                   "Stop interreflection when the unshot power is below "
+                   "this fraction of the emitted power")
+        ->capture_default_str();
+    app.add_option("--element-size", a.element_size,
+                   "Side of the interreflection elements, metres "
+                   "(each planar region is cut into such cells)")
+        ->capture_default_str();
+    app.add_option("--overrelax", a.overrelax,
+                   "Over-relaxation factor ω in [1, 2) of the "
+                   "converging solution (1 = classic progressive "
+                   "refinement)")
+        ->capture_default_str();
+    app.add_option("--ambient", a.ambient,
+                   "Spread what is left unshot at convergence as the "
+                   "ambient term")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
+    app.add_option("--convergence-csv", a.convergence_csv,
+                   "Write the convergence curve (shots, "
+                   "seconds, unshot fraction) to this CSV");
+    app.add_option("--shading", a.shading,
+                   "Vertex shades: exact (exact direct irradiance past the "
+                   "occluders) or patch (area-weighted hemicube patches)")
+        ->check(CLI::IsMember({"exact", "patch"}))
+        ->capture_default_str();
+    app.add_option("--threads", a.threads, "Worker threads (0 = all cores)")->capture_default_str();
+    app.add_option("--dm", a.dm,
+                   "Discontinuity meshing: re-mesh receivers along shadow edges and "
+                   "refine where the light changes")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
+    app.add_option("--lights", a.lights,
+                   "Light model for shadow edges: centroid (one point, hard "
+                   "edges), vertices (umbra and penumbra) or area (also the "
+                   "light-edge/occluder-vertex wedges)")
+        ->check(CLI::IsMember({"centroid", "vertices", "area"}))
+        ->capture_default_str();
+    app.add_option("--dm-angle", a.dm_angle,
+                   "Ruppert/Chew minimum triangle angle in degrees "
+                   "(0 = no quality refinement, at most 20.7)")
+        ->capture_default_str();
+    app.add_option("--refine-rounds", a.refine_rounds,
+                   "Rounds of refinement where the exact "
+                   "irradiance departs from linear (0 = none)")
+        ->capture_default_str();
+    app.add_option("--refine-tolerance", a.refine_tolerance,
+                   "Split an edge when its midpoint's exact irradiance differs from the "
+                   "interpolated value by more than this fraction")
+        ->capture_default_str();
+    app.add_option("--refine-min-edge", a.refine_min_edge,
+                   "Shortest edge refinement splits, metres")
+        ->capture_default_str();
+    app.add_option("--reach", a.reach,
+                   "Light reach in metres: a light lights, shades and shadows only "
+                   "what lies within this distance (per axis) of it (0 = unlimited)")
+        ->capture_default_str();
+}
+
+radiosity::BakeOptions to_options(const BakeArgs& a, const CLI::App& app) {
+    radiosity::BakeOptions o;
+    o.name = a.name;
+    o.method =
+        a.method == "zbuffer" ? radiosity::Visibility::ZBuffer : radiosity::Visibility::ABuffer;
+    o.resolution = a.resolution;
+    o.subpixels = a.subpixels;
+    if (a.bounces == "converge") {
+        o.bounces = -1;
+    } else {
+        const auto [end, ec] =
+            std::from_chars(a.bounces.data(), a.bounces.data() + a.bounces.size(), o.bounces);
+        if (ec != std::errc() || end != a.bounces.data() + a.bounces.size() || o.bounces < 0)
+            bad_input("--bounces must be 'converge' or a number of bounces >= 0, got '" +
+                      a.bounces + "'");
+    }
+    o.converge = a.converge;
+    o.element_size = a.element_size;
+    o.overrelaxation = a.overrelax;
+    o.ambient = a.ambient == "on";
+    o.shading = a.shading == "patch" ? radiosity::Shading::Patch : radiosity::Shading::Exact;
+    o.threads = a.threads;
+    o.dm = a.dm == "on";
+    o.lights = *radiosity::parse_light_model(a.lights);
+    o.dm_min_angle = a.dm_angle;
+    o.refine_rounds = a.refine_rounds;
+    o.refine_tolerance = a.refine_tolerance;
+    o.refine_min_edge = a.refine_min_edge;
+    o.reach = a.reach;
+    // The options given on the command line, by long name
+    std::vector<std::string> given;
+    for (const CLI::Option* option : app.get_options())
+        if (option->count() > 0)
+            for (const std::string& name : option->get_lnames()) given.push_back("--" + name);
+    try {
+        radiosity::validate(o);
+        radiosity::check_unused(o, given);
+    } catch (const radiosity::InputError& e) {
+        bad_input(e.what());
+    }
+    return o;
+}
+
+void add_view_options(CLI::App& app, ViewArgs& v) {
+    app.add_option("--camera", v.camera,
+                   "Camera name from the scene file or model (default: the "
+                   "first one; 'default' or none: inside the largest room "
+                   "looking at its centre)");
+    app.add_option("--width", v.width, "Image width in pixels")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 16384));
+    app.add_option("--height", v.height, "Image height in pixels")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 16384));
+    app.add_option("--exposure", v.exposure,
+                   "Exposure k per W/m2 (or lm/m2): image value k*B, "
+                   "display 1-exp(-k*B) (default: the bake's, 95th "
+                   "percentile radiosity luminance -> 0.8)")
+        ->check(CLI::PositiveNumber);
+}
+
+// ---------------------------------------------------------------------------------------
+// Databases
+
+visdb::Store open_db(const std::string& db, visdb::OpenMode mode) {
+    return visdb::Store::open(db, mode);
+}
+
+visdb::Bake load_bake_for(visdb::Store& store, const std::string& db, const std::string& bake_name,
+                          const std::string& purpose) {
+    if (store.list_bakes().empty())
+        bad_input(db + ": no bake to " + purpose + " (run abrad bake first)");
+    try {
+        return store.load_bake(bake_name);
+    } catch (const visdb::StoreError& e) {
+        if (e.kind() == visdb::StoreError::Kind::Failure) throw;
+        bad_input(e.what());
+    }
+}
+
+radiosity::PointIrradiance point_irradiance_of(const std::string& db, const visdb::Scene& scene,
+                                               const visdb::Bake* bake) {
+    try {
+        return radiosity::PointIrradiance(scene, bake);
+    } catch (const radiosity::InputError& e) {
+        bad_input(db + ": " + e.what());
+    }
+}
+
+visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v) {
+    try {
+        const visdb::Camera c = exporter::select_camera(scene, v.camera);
+        (void)exporter::camera_frame(c, v.width, v.height);  // a degenerate camera is bad input
+        return c;
+    } catch (const std::invalid_argument& e) {
+        bad_input(e.what());
+    }
+}
+
+}  // namespace abrad::tools::cli

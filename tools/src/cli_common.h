@@ -1,0 +1,198 @@
+#pragma once
+// The pieces the subcommands of the abrad command line share (internal to tools/): exit
+// statuses and the error that carries one, the option groups several subcommands take
+// (import, bake, view), opening databases, and the steps `run` chains (import, bake, export,
+// render), each implemented in its subcommand's file.
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "abrad/radiosity/bake.h"
+#include "abrad/radiosity/indirect.h"
+#include "abrad/visdb/model.h"
+#include "abrad/visdb/store.h"
+
+namespace CLI {
+class App;
+}
+
+namespace abrad::tools::cli {
+
+/// Exit statuses of abrad (README "Using it").
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;   ///< I/O, a locked or full database, internal errors
+inline constexpr int kExitBadInput = 2;  ///< a malformed model or database, an unusable option
+
+/// An error already phrased for the user, with the exit status it calls for.
+struct CommandError {
+    int status;
+    std::string message;
+};
+
+/// Throws CommandError{kExitBadInput, message}.
+[[noreturn]] void bad_input(const std::string& message);
+/// Throws CommandError{kExitFailure, message}.
+[[noreturn]] void failure(const std::string& message);
+
+/// What a subcommand's run function gets: its own parsed app, and the whole command line.
+struct Invocation {
+    const CLI::App& app;
+    int argc;
+    char** argv;
+};
+
+/// One subcommand of the table in tools/abrad.cpp.
+struct Command {
+    const char* name;
+    const char* description;
+    void (*add_options)(CLI::App& app);  ///< declares the options (bound to the file's state)
+    int (*run)(const Invocation& call);  ///< runs it once parsed; returns the exit status
+};
+
+// ---------------------------------------------------------------------------------------
+// Option groups
+
+/// Options of reading model files (import, run, bench).
+struct ImportArgs {
+    std::vector<std::string> models;
+    std::string unit;  ///< empty: the scene file's, else the file's own, else metres
+    std::string up;    ///< empty: the scene file's, else the format's convention
+    std::optional<double> weld;
+    std::string scene;
+};
+
+/// Options of a bake (bake, run, bench).
+struct BakeArgs {
+    std::string name;
+    std::string method = "abuffer";
+    int resolution = 50;
+    int subpixels = 8;
+    std::string bounces = "0";
+    double converge = 0.005;
+    double element_size = 0.5;
+    double overrelax = 1.0;
+    std::string ambient = "on";
+    std::string convergence_csv;
+    std::string shading = "exact";
+    int threads = 0;
+    std::string dm = "on";
+    std::string lights = "area";
+    double dm_angle = 0.0;
+    int refine_rounds = 4;
+    double refine_tolerance = 0.1;
+    double refine_min_edge = 0.05;
+    double reach = 0.0;
+};
+
+/// Options of the image-making exports and of render.
+struct ViewArgs {
+    std::string camera;  ///< empty: the scene's first camera, else the default camera
+    int width = 640;
+    int height = 480;
+    std::optional<double> exposure;  ///< empty: auto_tone_map of the bake
+    int light_samples = 256;
+    int reference_bounces = 0;
+    std::string quality = "medium";
+};
+
+/// The model-file arguments: MODEL (required) with the formats convert reads.
+void add_model_arguments(CLI::App& app, ImportArgs& a);
+/// --unit, --up, --weld, --scene.
+void add_import_options(CLI::App& app, ImportArgs& a);
+/// --name, --method, --resolution ... --reach.
+void add_bake_options(CLI::App& app, BakeArgs& a);
+/// --camera, --width, --height, --exposure.
+void add_view_options(CLI::App& app, ViewArgs& v);
+
+/// The bake options of `a`, validated: a bad value is bad input naming the option, and so is
+/// a bake option given on `app`'s command line that the chosen settings do not use
+/// (radiosity::check_unused).
+radiosity::BakeOptions to_options(const BakeArgs& a, const CLI::App& app);
+
+// ---------------------------------------------------------------------------------------
+// Databases
+
+/// Opens the visual database `db` (StoreError on failure, mapped to its exit status).
+visdb::Store open_db(const std::string& db, visdb::OpenMode mode = visdb::OpenMode::ReadWrite);
+
+/// The named bake (empty = the latest) for a command that needs one: an empty database or an
+/// unknown name is bad input. `purpose` completes "no bake to ...".
+visdb::Bake load_bake_for(visdb::Store& store, const std::string& db, const std::string& bake_name,
+                          const std::string& purpose);
+
+/// Direct plus gathered indirect irradiance at points; a scene without lights is bad input.
+radiosity::PointIrradiance point_irradiance_of(const std::string& db, const visdb::Scene& scene,
+                                               const visdb::Bake* bake);
+
+/// The camera `v` names in `scene`; an unknown or degenerate camera is bad input.
+visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v);
+
+/// Seconds since `start` on the steady clock.
+double seconds_since(std::chrono::steady_clock::time_point start);
+
+// ---------------------------------------------------------------------------------------
+// The steps (each in its subcommand's file)
+
+/// Reads and heals the model files with the scene file applied (cmd_import.cpp).
+visdb::Scene read_models(const ImportArgs& a);
+/// Appends `scene` to the database, created when missing (cmd_import.cpp).
+void import_into(const visdb::Scene& scene, const std::string& db);
+/// Bakes the database's scene, stores and summarises the bake, evaluates its grids into
+/// `<grid_prefix>grid-<name>.csv/.png` (default: beside the database) (cmd_bake.cpp).
+visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options,
+                      const std::string& convergence_csv = {}, const std::string& grid_prefix = {});
+
+/// What export writes (cmd_export.cpp).
+struct ExportArgs {
+    std::string db;
+    std::string format;  ///< empty: from the output's extension
+    std::string output;
+    std::string bake;  ///< empty: the latest
+    bool ascii = false;
+    ViewArgs view;
+};
+/// Exports a bake (or the model, pov-reference) in `a.format`, or the format the output's
+/// extension names; options the format does not use are checked by the export subcommand.
+void export_bake(const ExportArgs& a);
+
+/// What render draws (cmd_render.cpp).
+struct RenderArgs {
+    std::string db;
+    std::string bake;
+    std::string output;
+    ViewArgs view;
+    bool false_colour = false;
+    std::optional<double> vmin, vmax;
+};
+/// Renders a bake with abrad's rasterizer into an image file.
+void render_image(const RenderArgs& a);
+
+// ---------------------------------------------------------------------------------------
+// The subcommands: add_<name> declares the options, run_<name> runs it
+
+void add_import(CLI::App& app);
+int run_import(const Invocation& call);
+void add_bake(CLI::App& app);
+int run_bake(const Invocation& call);
+void add_export(CLI::App& app);
+int run_export(const Invocation& call);
+void add_render(CLI::App& app);
+int run_render(const Invocation& call);
+void add_compare(CLI::App& app);
+int run_compare(const Invocation& call);
+void add_info(CLI::App& app);
+int run_info(const Invocation& call);
+void add_probe(CLI::App& app);
+int run_probe(const Invocation& call);
+void add_field_error(CLI::App& app);
+int run_field_error(const Invocation& call);
+void add_run(CLI::App& app);
+int run_run(const Invocation& call);
+void add_generate(CLI::App& app);
+int run_generate(const Invocation& call);
+void add_bench(CLI::App& app);
+int run_bench(const Invocation& call);
+
+}  // namespace abrad::tools::cli

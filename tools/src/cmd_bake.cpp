@@ -1,0 +1,226 @@
+// abrad bake: the database's scene baked and stored, summarised, and its calculation grids
+// evaluated.
+
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "abrad/export/image.h"
+#include "abrad/radiosity/grid.h"
+#include "cli_common.h"
+
+namespace fs = std::filesystem;
+
+namespace abrad::tools::cli {
+namespace {
+
+struct State {
+    BakeArgs bake;
+    std::string db;
+};
+
+State& state() {
+    static State s;
+    return s;
+}
+
+// Progress on stderr: a rewritten line on a terminal; otherwise a line per 10% (or, when the
+// total is open, as the interreflection's shots are, one every two seconds).
+class Progress {
+  public:
+    Progress() : m_tty(isatty(STDERR_FILENO) != 0), m_start(std::chrono::steady_clock::now()) {}
+
+    void operator()(std::string_view stage, std::size_t done, std::size_t total) {
+        const double s = seconds();
+        const std::string_view what = stage.starts_with("shoot")  ? "light triangles"
+                                      : stage.starts_with("mesh") ? "rounds"
+                                                                  : "";
+        char line[256];
+        if (total) {
+            const int percent = static_cast<int>(100 * done / total);
+            std::snprintf(line, sizeof line, "%.*s: %zu/%zu %.*s (%d%%) %.1f s", int(stage.size()),
+                          stage.data(), done, total, int(what.size()), what.data(), percent, s);
+            if (!m_tty && percent / 10 == m_last_decile && done != total && stage == m_stage)
+                return;
+            m_last_decile = percent / 10;
+        } else {
+            std::snprintf(line, sizeof line, "%.*s: %zu %.1f s", int(stage.size()), stage.data(),
+                          done, s);
+            if (!m_tty && s - m_last_line < 2.0 && done != 0) return;
+        }
+        m_stage = std::string(stage);
+        m_last_line = s;
+        if (m_tty)
+            std::fprintf(stderr, "\r%-100s%s", line, total && done == total ? "\n" : "");
+        else
+            std::fprintf(stderr, "%s\n", line);
+    }
+
+  private:
+    double seconds() const {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+    }
+    bool m_tty;
+    int m_last_decile = -1;
+    double m_last_line = -1e9;
+    std::string m_stage;
+    std::chrono::steady_clock::time_point m_start;
+};
+
+// Irradiance range over the vertices of receivers (surfaces that do not emit).
+void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
+    double lo = 1e300, hi = 0.0, sum = 0.0;
+    std::size_t n = 0;
+    std::vector<bool> seen(b.mesh.positions.size(), false);
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        const auto& s = scene.surfaces[b.mesh.triangle_surface[t]];
+        if (scene.materials[s.material].is_emitter()) continue;
+        for (int k = 0; k < 3; ++k) {
+            const auto v = b.mesh.triangles[t][k];
+            if (seen[v]) continue;
+            seen[v] = true;
+            const glm::vec3 h = b.mesh.irradiance[v];
+            const double y = visdb::luminance(h);
+            lo = std::min(lo, y);
+            hi = std::max(hi, y);
+            sum += y;
+            ++n;
+        }
+    }
+    const visdb::BakeStats& st = b.statistics;
+    std::cout << "bake '" << b.name << "': " << st.triangles << " triangles, " << st.vertices
+              << " vertices, " << st.light_triangles << " light triangles, " << st.seconds_total
+              << " s\n";
+    if (n)
+        std::cout << "  receiver irradiance (luminance) min " << lo << " / mean " << sum / double(n)
+                  << " / max " << hi << " " << b.unit << "\n";
+    if (st.dm)
+        std::cout << "  discontinuity mesh: " << st.dm->triangles_before << " -> " << st.triangles
+                  << " triangles, " << st.dm->segments << " shadow segments, "
+                  << st.dm->refine_points << " refinement points in " << st.dm->rounds
+                  << " rounds, " << st.dm->seconds << " s\n";
+    // Power is in W for radiometric bakes, lm for photometric ones (lux bakes)
+    const char* power = b.unit == "lux" ? " lm" : " W";
+    std::cout << "  emitted " << st.emitted_power_w << power << ", reaching receivers "
+              << st.received_power_w << power << " (mean over RGB)\n";
+    if (const auto& i = st.indirect) {
+        std::cout << "  interreflection: " << i->elements << " elements, " << i->shots << " shots ("
+                  << i->rows << " hemicubes), unshot " << 100.0 * i->unshot_fraction
+                  << "%, ambient " << i->ambient << " " << b.unit << ", " << i->seconds << " s\n"
+                  << "  energy: emitted " << i->energy_emitted_w << power << " = absorbed "
+                  << i->energy_absorbed_w << power << " + escaped " << i->energy_escaped_w << power
+                  << " + unshot " << i->energy_unshot_w << power << "\n";
+    }
+}
+
+std::string utc_now() {
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+// A file-name-safe form of a grid name.
+std::string file_safe(const std::string& name) {
+    std::string out;
+    for (const char c : name)
+        out += std::isalnum(static_cast<unsigned char>(c)) || c == '-' ? c : '_';
+    return out;
+}
+
+// Each calculation grid of the scene evaluated on the bake (radiosity/grid.h): E_avg, E_min,
+// E_max and U0 = E_min/E_avg printed, the values written as CSV (`<prefix>grid-<name>.csv`,
+// one line per point) and as a false-colour image beside it (from 0 to the grid's maximum).
+// Values are illuminance (photometric bakes) or irradiance as luminance-weighted RGB, like the
+// bake summary.
+void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visdb::Bake& bake,
+                    const fs::path& prefix) {
+    if (scene.grids.empty()) return;
+    const radiosity::PointIrradiance field = point_irradiance_of(db, scene, &bake);
+    for (const visdb::CalculationGrid& g : scene.grids) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const radiosity::GridValues v = radiosity::evaluate_grid(field, g);
+        const fs::path csv = prefix.string() + "grid-" + file_safe(g.name) + ".csv";
+        try {
+            radiosity::write_grid_csv(csv, v);
+        } catch (const std::runtime_error& x) {
+            failure(x.what());
+        }
+        const fs::path png = prefix.string() + "grid-" + file_safe(g.name) + ".png";
+        try {
+            exporter::write_false_colour_image(png, v.nx, v.ny, v.image(), 0.0,
+                                               v.e_max > 0.0 ? v.e_max : 1.0,
+                                               bake.unit == "lux" ? "lux" : "W/m²");
+        } catch (const std::exception& x) {
+            failure(png.string() + ": " + x.what());
+        }
+        std::printf(
+            "  grid '%s': %d x %d points at z %.3g m: E_avg %.4g, E_min %.4g, E_max %.4g %s, "
+            "U0 %.3f (%s, %s, %.2f s)\n",
+            g.name.c_str(), v.nx, v.ny, g.z, v.e_avg, v.e_min, v.e_max, bake.unit.c_str(), v.u0(),
+            csv.string().c_str(), png.filename().string().c_str(), seconds_since(t0));
+    }
+}
+
+}  // namespace
+
+visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in,
+                      const std::string& convergence_csv, const std::string& grid_prefix) {
+    visdb::Store store = open_db(db);
+    const visdb::Scene scene = store.load_scene();
+    radiosity::BakeOptions options = options_in;
+    if (options.name.empty())
+        options.name = "bake-" + std::to_string(store.list_bakes().size() + 1);
+    Progress progress;
+    visdb::Bake b;
+    std::vector<radiosity::ConvergenceSample> curve;
+    if (!convergence_csv.empty()) options.convergence = &curve;
+    try {
+        b = radiosity::bake(scene, options, std::ref(progress));
+    } catch (const radiosity::InputError& e) {
+        bad_input(db + ": " + e.what());
+    }
+    if (!convergence_csv.empty()) {
+        std::ofstream out(convergence_csv);
+        out << "shots,seconds,unshot_fraction\n";
+        for (const auto& c : curve)
+            out << c.shots << "," << c.seconds << "," << c.unshot_fraction << "\n";
+        if (!out)
+            throw CommandError{kExitFailure,
+                               convergence_csv + ": cannot write the convergence curve"};
+    }
+    b.created_at = utc_now();
+    store.add_bake(b);
+    print_bake_summary(b, scene);
+    std::cout << std::flush;
+    evaluate_grids(db, scene, b,
+                   grid_prefix.empty()
+                       ? fs::path(db).replace_extension("").string() + "." + b.name + "."
+                       : grid_prefix);
+    return b;
+}
+
+void add_bake(CLI::App& app) {
+    State& s = state();
+    app.add_option("--db", s.db, "Visual database")->required();
+    add_bake_options(app, s.bake);
+}
+
+int run_bake(const Invocation& call) {
+    const State& s = state();
+    bake_into(s.db, to_options(s.bake, call.app), s.bake.convergence_csv);
+    return kExitOk;
+}
+
+}  // namespace abrad::tools::cli

@@ -1,0 +1,254 @@
+// abrad export: a bake as shaded PLY, OBJ, glTF or an unlit POV-Ray scene, or the model as a
+// POV-Ray reference scene. The formats are one table: name, extensions, the options each uses,
+// the function that writes it; dispatch and the "not used by this format" errors come from it.
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <iostream>
+#include <string_view>
+#include <vector>
+
+#include "abrad/export/render.h"
+#include "abrad/export/writers.h"
+#include "cli_common.h"
+
+namespace fs = std::filesystem;
+
+namespace abrad::tools::cli {
+namespace {
+
+// What a format's write function gets: the arguments, the open database and its scene.
+struct ExportJob {
+    const ExportArgs& args;
+    std::string_view format;
+    visdb::Store& store;
+    const visdb::Scene& scene;
+};
+
+// The bake to export and its tone map (--exposure, else the bake's own).
+struct ToneMapped {
+    visdb::Bake bake;
+    exporter::ToneMap tone;
+};
+
+ToneMapped bake_of(const ExportJob& job) {
+    visdb::Bake b = load_bake_for(job.store, job.args.db, job.args.bake, "export");
+    const exporter::ToneMap tone = job.args.view.exposure
+                                       ? exporter::ToneMap{.exposure = *job.args.view.exposure}
+                                       : exporter::auto_tone_map(b.mesh);
+    return {std::move(b), tone};
+}
+
+void report(const ExportJob& job, const ToneMapped& t) {
+    std::cout << "wrote " << job.args.output << " (" << job.format << ", bake '" << t.bake.name
+              << "', " << t.bake.mesh.positions.size() << " vertices, "
+              << t.bake.mesh.triangles.size() << " triangles, exposure " << t.tone.exposure
+              << " per " << t.bake.unit << ")\n";
+}
+
+void write_ply(const ExportJob& job) {
+    const ToneMapped t = bake_of(job);
+    exporter::write_ply(job.args.output, t.bake.mesh, t.tone,
+                        {.ascii = job.args.ascii, .comment = "abrad bake " + t.bake.name});
+    report(job, t);
+}
+
+void write_obj(const ExportJob& job) {
+    const ToneMapped t = bake_of(job);
+    exporter::write_obj(job.args.output, job.scene, t.bake.mesh, t.tone);
+    report(job, t);
+}
+
+void write_gltf(const ExportJob& job) {
+    const ToneMapped t = bake_of(job);
+    exporter::write_gltf(job.args.output, job.scene, t.bake.mesh, t.tone);
+    report(job, t);
+}
+
+void write_pov(const ExportJob& job) {
+    const ToneMapped t = bake_of(job);
+    const ViewArgs& view = job.args.view;
+    const exporter::PovView v{.camera = camera_for(job.scene, view),
+                              .width = view.width,
+                              .height = view.height,
+                              .exposure = t.tone.exposure};
+    exporter::write_pov(job.args.output, job.scene, t.bake.mesh, v);
+    std::cout << "camera '" << v.camera.name << "'\n";
+    report(job, t);
+}
+
+// The reference needs the scene only; the bake (when there is one) sets the exposure.
+void write_pov_reference(const ExportJob& job) {
+    const ViewArgs& view = job.args.view;
+    double exposure = view.exposure.value_or(1.0);
+    std::string from = "given";
+    if (!view.exposure) {
+        if (job.store.list_bakes().empty())
+            bad_input(job.args.db + ": no bake to take the exposure from (give --exposure)");
+        exposure = exporter::auto_tone_map(
+                       load_bake_for(job.store, job.args.db, job.args.bake, "export").mesh)
+                       .exposure;
+        from = "of the bake";
+    }
+    exporter::PovReferenceOptions o;
+    o.view = {.camera = camera_for(job.scene, view),
+              .width = view.width,
+              .height = view.height,
+              .exposure = exposure};
+    o.light_samples = view.light_samples;
+    o.bounces = view.reference_bounces;
+    o.quality = view.quality == "low"    ? exporter::PovQuality::Low
+                : view.quality == "high" ? exporter::PovQuality::High
+                                         : exporter::PovQuality::Medium;
+    exporter::write_pov_reference(job.args.output, job.scene, o);
+    std::cout << "wrote " << job.args.output << " (pov-reference, camera '" << o.view.camera.name
+              << "', "
+              << (o.bounces ? std::to_string(o.bounces) + " POV-Ray radiosity bounces"
+                            : std::string("direct light only"))
+              << ", exposure " << exposure << " " << from << ")\n";
+}
+
+// One export format.
+struct ExportFormat {
+    std::string_view name;
+    std::vector<std::string_view> extensions;  ///< lower case, with the dot
+    bool by_extension;                         ///< an extension alone picks it
+    std::vector<std::string_view> options;     ///< options only some formats use
+    void (*write)(const ExportJob& job);
+};
+
+// The formats. An extension picks the first format listing it with by_extension set;
+// --db, --output, --bake, --format and --exposure apply to every format.
+const std::vector<ExportFormat>& export_formats() {
+    static const std::vector<ExportFormat> kFormats = {
+        {"ply", {".ply"}, true, {"--ascii"}, write_ply},
+        {"obj", {".obj"}, true, {}, write_obj},
+        {"gltf", {".gltf", ".glb"}, true, {}, write_gltf},
+        {"pov", {".pov"}, true, {"--camera", "--width", "--height"}, write_pov},
+        {"pov-reference",
+         {".pov"},
+         false,
+         {"--camera", "--width", "--height", "--light-samples", "--reference-bounces", "--quality"},
+         write_pov_reference},
+    };
+    return kFormats;
+}
+
+const ExportFormat* find_format(std::string_view name) {
+    for (const ExportFormat& f : export_formats())
+        if (f.name == name) return &f;
+    return nullptr;
+}
+
+bool lists(const std::vector<std::string_view>& list, std::string_view item) {
+    return std::find(list.begin(), list.end(), item) != list.end();
+}
+
+std::string lower_extension(const std::string& path) {
+    std::string ext = fs::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return ext;
+}
+
+// The format the output's extension picks, or null.
+const ExportFormat* format_of_extension(const std::string& ext) {
+    for (const ExportFormat& f : export_formats())
+        if (f.by_extension && lists(f.extensions, ext)) return &f;
+    return nullptr;
+}
+
+// The format to write: --format (which must agree with a known extension), else the one the
+// output's extension picks. Anything else is bad input.
+const ExportFormat& choose_format(const ExportArgs& a) {
+    const std::string ext = lower_extension(a.output);
+    const ExportFormat* by_ext = format_of_extension(ext);
+    if (a.format.empty()) {
+        if (by_ext) return *by_ext;
+        std::string known;
+        for (const ExportFormat& f : export_formats())
+            if (f.by_extension)
+                for (std::string_view e : f.extensions)
+                    known += (known.empty() ? "" : ", ") + std::string(e);
+        bad_input(a.output + ": cannot tell the format from the extension '" + ext +
+                  "' (known: " + known + "); give --format");
+    }
+    const ExportFormat* f = find_format(a.format);
+    if (!f) bad_input("--format " + a.format + ": unknown format");
+    if (by_ext && !lists(f->extensions, ext))
+        bad_input("--format " + a.format + " contradicts the extension of " + a.output + " ('" +
+                  ext + "' is " + std::string(by_ext->name) + ")");
+    return *f;
+}
+
+// An option given but not used by the format is an error, never ignored.
+void check_options_used(const CLI::App& app, const ExportFormat& format) {
+    for (const ExportFormat& other : export_formats())
+        for (std::string_view option : other.options) {
+            if (lists(format.options, option) || app.count(std::string(option)) == 0) continue;
+            std::string users;
+            for (const ExportFormat& f : export_formats())
+                if (lists(f.options, option))
+                    users += (users.empty() ? "" : " and ") + std::string(f.name);
+            bad_input(std::string(option) + " applies to --format " + users + " only; --format " +
+                      std::string(format.name) + " does not use it");
+        }
+}
+
+ExportArgs& state() {
+    static ExportArgs s;
+    return s;
+}
+
+}  // namespace
+
+void export_bake(const ExportArgs& a) {
+    const ExportFormat& format = choose_format(a);
+    visdb::Store store = open_db(a.db);
+    const visdb::Scene scene = store.load_scene();
+    format.write({.args = a, .format = format.name, .store = store, .scene = scene});
+}
+
+void add_export(CLI::App& app) {
+    ExportArgs& s = state();
+    std::vector<std::string> names;
+    std::string help;
+    for (const ExportFormat& f : export_formats()) {
+        names.emplace_back(f.name);
+        std::string exts;
+        for (std::string_view e : f.extensions) exts += (exts.empty() ? "" : " ") + std::string(e);
+        help += (help.empty() ? "" : ", ") + std::string(f.name) + " (" + exts +
+                (f.by_extension ? "" : ", only when given") + ")";
+    }
+    app.add_option("--db", s.db, "Visual database")->required();
+    app.add_option("--format", s.format,
+                   "Format, else the output's extension picks it: " + help +
+                       "; pov is the bake, unlit; pov-reference the model lit by POV-Ray")
+        ->check(CLI::IsMember(names));
+    app.add_option("--output", s.output, "Output path")->required();
+    app.add_option("--bake", s.bake, "Bake name (default: the latest)");
+    app.add_flag("--ascii", s.ascii, "PLY as ASCII instead of binary little endian");
+    add_view_options(app, s.view);
+    app.add_option("--light-samples", s.view.light_samples,
+                   "pov-reference: point lights sampling the emitters (cos-weighted spotlights)")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 1000000));
+    app.add_option("--reference-bounces", s.view.reference_bounces,
+                   "pov-reference: POV-Ray radiosity bounces (0 = off, direct light only)")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 20));
+    app.add_option("--quality", s.view.quality, "pov-reference: POV-Ray radiosity quality")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"low", "medium", "high"}));
+}
+
+int run_export(const Invocation& call) {
+    const ExportArgs& a = state();
+    check_options_used(call.app, choose_format(a));
+    export_bake(a);
+    return kExitOk;
+}
+
+}  // namespace abrad::tools::cli
