@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "abrad/radiosity/stage.h"
+
 namespace abrad::radiosity {
 
 namespace {
@@ -63,46 +65,44 @@ std::vector<glm::dvec2> subtriangle_centroids(int k) {
 }
 
 // Checks that every index of the mesh and every surface it names resolves; throws
-// std::invalid_argument naming what does not.
+// InputError naming what does not.
 void validate(const visdb::Scene& scene, const visdb::BakeMesh& mesh,
               const FieldErrorOptions& options) {
     if (options.subdivisions < 1)
-        throw std::invalid_argument("field_error: subdivisions must be >= 1, got " +
-                                    std::to_string(options.subdivisions));
+        throw InputError("field_error: subdivisions must be >= 1, got " +
+                         std::to_string(options.subdivisions));
     if (mesh.irradiance.size() != mesh.positions.size())
-        throw std::invalid_argument(
-            "field_error: the mesh has " + std::to_string(mesh.irradiance.size()) +
-            " irradiance values for " + std::to_string(mesh.positions.size()) + " vertices");
+        throw InputError("field_error: the mesh has " + std::to_string(mesh.irradiance.size()) +
+                         " irradiance values for " + std::to_string(mesh.positions.size()) +
+                         " vertices");
     if (mesh.triangle_surface.size() != mesh.triangles.size())
-        throw std::invalid_argument(
-            "field_error: the mesh has " + std::to_string(mesh.triangle_surface.size()) +
-            " triangle surfaces for " + std::to_string(mesh.triangles.size()) + " triangles");
+        throw InputError("field_error: the mesh has " +
+                         std::to_string(mesh.triangle_surface.size()) + " triangle surfaces for " +
+                         std::to_string(mesh.triangles.size()) + " triangles");
     const std::size_t nv = mesh.positions.size();
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const glm::u32vec3& tri = mesh.triangles[t];
         if (tri.x >= nv || tri.y >= nv || tri.z >= nv)
-            throw std::invalid_argument("field_error: triangle " + std::to_string(t) +
-                                        " indexes a vertex outside the mesh's " +
-                                        std::to_string(nv));
+            throw InputError("field_error: triangle " + std::to_string(t) +
+                             " indexes a vertex outside the mesh's " + std::to_string(nv));
         const std::uint32_t s = mesh.triangle_surface[t];
         if (s >= scene.surfaces.size())
-            throw std::invalid_argument(
-                "field_error: triangle " + std::to_string(t) + " names surface " +
-                std::to_string(s) + " but the scene has " + std::to_string(scene.surfaces.size()));
+            throw InputError("field_error: triangle " + std::to_string(t) + " names surface " +
+                             std::to_string(s) + " but the scene has " +
+                             std::to_string(scene.surfaces.size()));
     }
     for (const visdb::Surface& surface : scene.surfaces)
         if (surface.material >= scene.materials.size())
-            throw std::invalid_argument("field_error: surface '" + surface.name +
-                                        "' names material " + std::to_string(surface.material) +
-                                        " but the scene has " +
-                                        std::to_string(scene.materials.size()));
+            throw InputError("field_error: surface '" + surface.name + "' names material " +
+                             std::to_string(surface.material) + " but the scene has " +
+                             std::to_string(scene.materials.size()));
 }
 
 }  // namespace
 
 FieldError field_error(const visdb::Scene& scene, const visdb::BakeMesh& mesh,
                        const IrradianceFn& exact, const FieldErrorOptions& options) {
-    if (!exact) throw std::invalid_argument("field_error: no exact irradiance function");
+    if (!exact) throw InputError("field_error: no exact irradiance function");
     validate(scene, mesh, options);
 
     // Receivers per surface

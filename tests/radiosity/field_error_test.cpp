@@ -243,32 +243,32 @@ TEST(FieldError, BadInputThrows) {
 
     auto no_irradiance = good.mesh;
     no_irradiance.irradiance.clear();
-    EXPECT_THROW(field_error(scene, no_irradiance, exact), std::invalid_argument);
+    EXPECT_THROW(field_error(scene, no_irradiance, exact), InputError);
 
     auto bad_surface = good.mesh;
     bad_surface.triangle_surface[0] = 3;
-    EXPECT_THROW(field_error(scene, bad_surface, exact), std::invalid_argument);
+    EXPECT_THROW(field_error(scene, bad_surface, exact), InputError);
 
     auto missing_surface = good.mesh;
     missing_surface.triangle_surface.clear();
-    EXPECT_THROW(field_error(scene, missing_surface, exact), std::invalid_argument);
+    EXPECT_THROW(field_error(scene, missing_surface, exact), InputError);
 
     auto bad_vertex = good.mesh;
     bad_vertex.triangles[0].z = 3;
-    EXPECT_THROW(field_error(scene, bad_vertex, exact), std::invalid_argument);
+    EXPECT_THROW(field_error(scene, bad_vertex, exact), InputError);
 
     visdb::Scene bad_material = scene;
     bad_material.surfaces[0].material = 7;
     try {
         field_error(bad_material, good.mesh, exact);
         ADD_FAILURE() << "no exception for a material outside the scene";
-    } catch (const std::invalid_argument& e) {
+    } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("material 7"), std::string::npos) << e.what();
     }
 
-    EXPECT_THROW(field_error(scene, good.mesh, exact, {0}), std::invalid_argument);
-    EXPECT_THROW(field_error(scene, good.mesh, exact, {-2}), std::invalid_argument);
-    EXPECT_THROW(field_error(scene, good.mesh, IrradianceFn{}), std::invalid_argument);
+    EXPECT_THROW(field_error(scene, good.mesh, exact, {0}), InputError);
+    EXPECT_THROW(field_error(scene, good.mesh, exact, {-2}), InputError);
+    EXPECT_THROW(field_error(scene, good.mesh, IrradianceFn{}), InputError);
 }
 
 }  // namespace

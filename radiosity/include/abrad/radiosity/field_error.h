@@ -7,6 +7,7 @@
 #include <functional>
 #include <glm/vec3.hpp>
 
+#include "abrad/radiosity/stage.h"
 #include "abrad/visdb/model.h"
 
 namespace abrad::radiosity {
@@ -30,7 +31,7 @@ struct FieldError {
 /// Measures `mesh` (its `irradiance` per vertex) against `exact` over every triangle whose
 /// surface is a receiver (reflectance > 0 and no emittance in `scene`). Each triangle's
 /// normal is its geometric one (counter-clockwise front). Parallel over triangles; `exact`
-/// must be safe to call concurrently. Throws std::invalid_argument for a mesh without
+/// must be safe to call concurrently. Throws InputError (stage.h) for a mesh without
 /// irradiance or with a surface index outside `scene`.
 FieldError field_error(const visdb::Scene& scene, const visdb::BakeMesh& mesh,
                        const IrradianceFn& exact, const FieldErrorOptions& options = {});

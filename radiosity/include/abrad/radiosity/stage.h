@@ -11,7 +11,10 @@ namespace abrad::radiosity {
 
 /// Settings or a scene that cannot be baked (an option out of range, a setting the chosen
 /// mode does not use, a scene without lights...): the caller's bad input (exit status 2).
-/// Thrown by every stage; the message names the option or the scene element.
+/// Thrown by every stage, the field error and the point queries; the message names the option
+/// or the scene element. (The building blocks under the stages, Hemicube, shoot and
+/// mesh_regions, throw std::invalid_argument, a std::logic_error, for a broken precondition:
+/// the stages validate first, so that is a bug of the caller, like a failed ABRAD_CHECK.)
 class InputError : public std::runtime_error {
   public:
     using std::runtime_error::runtime_error;
