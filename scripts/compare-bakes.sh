@@ -10,8 +10,9 @@
 # Known: the discontinuity mesh of some scenes is not reproducible from run to run (a few
 # sliver faces along shadow edges whose corners differ by one ulp). When the meshes differ,
 # the old binary bakes the case up to five times more: the case passes when the new mesh is
-# one of the old binary's (and its values agree as above); when the old runs differ among themselves, it is compared by each surface's
-# integrated irradiance (relative 1e-4), and the output says which.
+# one of the old binary's (and its values agree as above); when none of the old runs matches
+# but they differ among themselves, each surface's integrated irradiance must agree (relative
+# 1e-4). The output says which.
 #
 #   scripts/compare-bakes.sh OLD_ABRAD NEW_ABRAD [WORKDIR]
 #   ONLY=furnished scripts/compare-bakes.sh ...     # the cases whose name matches a regex
