@@ -76,7 +76,7 @@ TEST(Bench, QuickRunWritesCsvAndSummaryWithRealValues) {
         EXPECT_GE(r.field_error, 0.0);
         EXPECT_LT(r.field_error, 1.0);
         // Every ray from a ceiling panel in a closed room hits something: Σ F = 1
-        EXPECT_NEAR(r.stat("mean_form_factor_sum"), 1.0, 1e-6) << label(r.options);
+        EXPECT_NEAR(r.statistics.mean_form_factor_sum, 1.0, 1e-6) << label(r.options);
         if (r.options.dm) {
             EXPECT_GT(r.triangles_out, r.triangles_in);
         }
