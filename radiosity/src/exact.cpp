@@ -120,7 +120,7 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
         for (Piece& piece : pieces) {
             if (piece.hi.x <= slo.x || piece.lo.x >= shi.x || piece.hi.y <= slo.y ||
                 piece.lo.y >= shi.y) {
-                next.push_back(std::move(piece));
+                next.push_back(piece);  // trivially copyable
                 continue;
             }
             Poly2 rest = piece.poly;

@@ -333,6 +333,9 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
     if (options.bounces > 0) {
         // Bounce k: every element shoots what it received in bounce k − 1 (a Jacobi sweep)
         for (int bounce = 0; bounce < options.bounces; ++bounce) {
+            // A copy on purpose: the Jacobi sweep shoots bounce k − 1 while shoot_from changes r
+            // (through its reference capture, which clang-tidy does not see)
+            // NOLINTNEXTLINE(performance-unnecessary-copy-initialization)
             const std::vector<visdb::Rgb> pending = r;
             std::vector<std::uint32_t> shooters;
             for (std::size_t e = 0; e < ne; ++e)
@@ -354,7 +357,7 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
             unshot = unshot_power();
             record(unshot);
             if (progress)
-                progress("interreflection: bounce", std::size_t(bounce + 1),
+                progress("interreflection: bounce", std::size_t(bounce) + 1,
                          std::size_t(options.bounces), unshot / emitted);
         }
     } else {

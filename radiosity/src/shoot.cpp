@@ -431,7 +431,10 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
 
     // Scan-convert every patch into fragments
     FragmentBuffer<S> buffer;
-    for (const auto& [near, id] : order_fb) {
+    for (const auto& nearest_and_patch : order_fb) {
+        // A plain variable, not a structured binding: clang 14 (clang-tidy) cannot capture
+        // structured bindings in the lambda below
+        const std::uint32_t id = nearest_and_patch.second;
         const glm::dvec3 local[3] = {frame.to_local(patches[id].p[0]),
                                      frame.to_local(patches[id].p[1]),
                                      frame.to_local(patches[id].p[2])};
