@@ -20,9 +20,12 @@ if [[ ! -f $build/compile_commands.json ]]; then
     exit 1
 fi
 
-# Translation units left out, and why:
-#  - radiosity/src/dm_mesh.cpp, the only file including CGAL (see the measurement below).
-skip=(radiosity/src/dm_mesh.cpp)
+# Translation units left out, and why: none today. Measured with clang-tidy 14 (user CPU, on a
+# loaded 2-core machine): all 30 files about 3.5 CPU-minutes, of which radiosity/src/dm_mesh.cpp,
+# the only file including CGAL, about 50 s. If this test grows past ~6 CPU-minutes, list
+# dm_mesh.cpp here first (CGAL's templates are most of its cost and the header filter drops
+# CGAL's own diagnostics anyway).
+skip=()
 
 dirs=(radiosity tools export convert visdb)
 if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
@@ -32,9 +35,9 @@ else
 fi
 files=()
 for f in "${all[@]}"; do
-    for s in "${skip[@]}"; do [[ $f == "$s" ]] && continue 2; done
+    for s in "${skip[@]+"${skip[@]}"}"; do [[ $f == "$s" ]] && continue 2; done
     # Only what this build compiles (tools/microbench.cpp needs libbenchmark-dev)
-    grep -q "\"file\": \"$src/$f\"" "$build/compile_commands.json" || continue
+    grep -qF "/$f\"" "$build/compile_commands.json" || continue
     files+=("$f")
 done
 if ((${#files[@]} == 0)); then
