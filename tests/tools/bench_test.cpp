@@ -15,6 +15,7 @@
 #include <string>
 
 #include "abrad/tools/floor_gen.h"
+#include "temp_dir.h"
 
 namespace abrad::tools {
 namespace {
