@@ -6,10 +6,13 @@
 //     ABRAD_REQUIRE_SHARED_DATA("ifc/AC14-FZK-Haus.ifc");
 //
 // which skips the test (GTEST_SKIP) with a message naming the missing path. The argument is
-// relative to the folder; "" asks for the folder itself.
+// relative to the folder; "" asks for the folder itself. The environment variable
+// ABRAD_SHARED_DATA, when set, replaces the folder chosen at configure time (so
+// `ABRAD_SHARED_DATA=/nowhere ctest ...` shows which tests need it).
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -21,7 +24,8 @@ namespace abrad::testing {
 
 /// The shared data folder, or `relative` inside it.
 inline std::filesystem::path shared_data(const std::string& relative = "") {
-    const std::filesystem::path root{ABRAD_SHARED_DATA};
+    const char* env = std::getenv("ABRAD_SHARED_DATA");
+    const std::filesystem::path root{env != nullptr && *env != '\0' ? env : ABRAD_SHARED_DATA};
     return relative.empty() ? root : root / relative;
 }
 
