@@ -74,7 +74,7 @@ TEST(Image, WriteRejectsWrongBufferSizeNamingThePath) {
 TEST(Image, ReadMissingFileNamesIt) {
     const abrad::testing::TempDir dir("image");  // kept if the test fails
     try {
-        (void)read_imagedir / "missing.exr";
+        (void)read_image(dir / "missing.exr");
         FAIL() << "no error";
     } catch (const ExportError& e) {
         EXPECT_NE(std::string(e.what()).find("missing.exr"), std::string::npos) << e.what();
