@@ -92,4 +92,14 @@ int run_cli(int argc, char** argv) {
 }  // namespace
 }  // namespace abrad::tools::cli
 
-int main(int argc, char** argv) { return abrad::tools::cli::run_cli(argc, argv); }
+int main(int argc, char** argv) {
+    try {
+        return abrad::tools::cli::run_cli(argc, argv);
+    } catch (const std::exception& e) {  // outside any subcommand: CLI11 set-up, reporting
+        std::cerr << "abrad: " << e.what() << "\n";
+        return abrad::tools::cli::kExitFailure;
+    } catch (...) {
+        std::cerr << "abrad: unknown error\n";
+        return abrad::tools::cli::kExitFailure;
+    }
+}

@@ -1508,7 +1508,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
     raw.source.up_axis = std::string(1, up);
     raw.where = [file, instances](std::size_t place) {
         const std::size_t instance = place >> 32;
-        if (instance == 0 || instance > instances->size()) return file;
+        if (instance == 0 || instance > instances->size()) return std::string(file);  // a copy
         const std::size_t face = place & 0xffffffffULL;
         return located(file, 0, (*instances)[instance - 1].label + " face " + std::to_string(face));
     };

@@ -118,7 +118,10 @@ void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
         buf += 'f';
         for (int k = 0; k < 3; ++k) {
             const std::string index = std::to_string(std::uint64_t{mesh.triangles[t][k]} + 1);
-            buf += ' ' + index + "//" + index;
+            buf += ' ';
+            buf += index;
+            buf += "//";
+            buf += index;
         }
         buf += '\n';
         obj.write_if_full(buf);

@@ -154,7 +154,9 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
             // gets the texture_list and its back the black interior_texture
             const std::string a = std::to_string(local[t.x]), b = std::to_string(local[t.z]),
                               c = std::to_string(local[t.y]);
-            out += ",\n    <" + a + "," + b + "," + c + ">," + a + "," + b + "," + c;
+            for (const char* piece : {",\n    <", a.c_str(), ",", b.c_str(), ",", c.c_str(), ">,",
+                                      a.c_str(), ",", b.c_str(), ",", c.c_str()})
+                out += piece;
             file.write_if_full(out);
         }
         out += " }\n  texture { Abrad_Back }\n  interior_texture { Abrad_Back }\n  translate ";

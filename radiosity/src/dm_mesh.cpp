@@ -725,7 +725,10 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
         if (v0 != v1 && seen_segments.insert({std::min(v0, v1), std::max(v0, v1)}).second)
             routed.push_back({v0, v1});
     };
-    for (const auto& [v0, v1] : st.segments) {
+    for (const auto& segment : st.segments) {
+        // Plain variables, not a structured binding: clang 14 (clang-tidy) cannot capture
+        // structured bindings in the lambda below
+        const std::uint32_t v0 = segment[0], v1 = segment[1];
         const Vec2 a = st.verts[v0].p, d = st.verts[v1].p - a;
         const double dd = dot2(d, d);
         const int chunks = static_cast<int>(std::clamp(std::sqrt(dd) / scale * 64.0, 1.0, 256.0));

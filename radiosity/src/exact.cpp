@@ -104,7 +104,7 @@ bool subtract_shadow(std::vector<Piece>& pieces, const Poly2& shadow, double tra
     for (Piece& piece : pieces) {
         if (piece.hi.x <= slo.x || piece.lo.x >= shi.x || piece.hi.y <= slo.y ||
             piece.lo.y >= shi.y) {
-            next.push_back(std::move(piece));
+            next.push_back(piece);  // trivially copyable
             continue;
         }
         Poly2 rest = piece.poly;

@@ -375,6 +375,9 @@ class Solver {
     void run_bounces(double unshot) {
         const double emitted = m_sol.energy.emitted;
         for (int bounce = 0; bounce < m_options.bounces; ++bounce) {
+            // A copy on purpose: the Jacobi sweep shoots bounce k − 1 while shoot_from changes
+            // m_r
+            // NOLINTNEXTLINE(performance-unnecessary-copy-initialization)
             const std::vector<visdb::Rgb> pending = m_r;
             std::vector<std::uint32_t> shooters;
             for (std::size_t e = 0; e < m_ne; ++e)
@@ -395,7 +398,7 @@ class Solver {
             ++m_sol.bounces_done;
             unshot = unshot_power();
             record(unshot);
-            progress("interreflection: bounce", std::size_t(bounce + 1),
+            progress("interreflection: bounce", std::size_t(bounce) + 1,
                      std::size_t(m_options.bounces), unshot / emitted);
         }
     }

@@ -460,7 +460,10 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
     const bool cull = !options.occlusion;
     ClosedPixels<S> closed(hc.pixel_count());
     FragmentBuffer<S> buffer;
-    for (const auto& [near, id] : front_to_back(frame, patches, options)) {
+    for (const auto& nearest_and_patch : front_to_back(frame, patches, options)) {
+        // A plain variable, not a structured binding: clang 14 (clang-tidy) cannot capture
+        // structured bindings in the lambda below
+        const std::uint32_t id = nearest_and_patch.second;
         const glm::dvec3 local[3] = {frame.to_local(patches[id].p[0]),
                                      frame.to_local(patches[id].p[1]),
                                      frame.to_local(patches[id].p[2])};

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "raw_model.h"
+#include "shared_data.h"
 #include "temp_dir.h"
 
 /// Assimp 5.2 leaks its partial scene when some readers (PLY among them) throw on a malformed
@@ -33,9 +34,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kSharedData{ABRAD_SHARED_DATA};
+const fs::path kSharedData = abrad::testing::shared_data();
 
-using testing::TempDir;
+using ::abrad::testing::TempDir;
 
 std::string read_bytes(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
@@ -333,6 +334,7 @@ std::string synthetic_dxf() {
 // ---------------------------------------------------------------------------------------------
 
 TEST(AssimpImport, PlyAsciiAndBinaryCubesAgree) {
+    ABRAD_REQUIRE_SHARED_DATA("misc/cube_binary.ply");
     std::vector<std::string> notes;
     const RawModel ascii = read_assimp(kSharedData / "misc/cube.ply", {}, notes);
     const RawModel binary = read_assimp(kSharedData / "misc/cube_binary.ply", {}, notes);
@@ -369,6 +371,7 @@ TEST(AssimpImport, PlyAsciiAndBinaryCubesAgree) {
 }
 
 TEST(AssimpImport, GltfYUpTurnedToZUp) {
+    ABRAD_REQUIRE_SHARED_DATA("gltf_bad/BoxTextured-glTF/BoxTextured.gltf");
     // A real file: with up = 'z' nothing turns; by default (glTF is Y up) (x, y, z) -> (x, -z, y)
     const fs::path box = kSharedData / "gltf_bad/BoxTextured-glTF/BoxTextured.gltf";
     std::vector<std::string> notes;
@@ -574,6 +577,7 @@ TEST(AssimpImport, StlAndOff) {
 }
 
 TEST(AssimpImport, DxfSharedFiles) {
+    ABRAD_REQUIRE_SHARED_DATA("dxf");
     std::vector<std::string> notes;
     // 3dface.dxf: $INSUNITS 4 (millimetres), 44 3DFACEs in ENTITIES (two more in an unused
     // block), flat at z = 0
@@ -660,6 +664,7 @@ TEST(AssimpImport, DxfInsertsPlacedScaledTurnedAndNested) {
 }
 
 TEST(AssimpImport, IfcFzkHaus) {
+    ABRAD_REQUIRE_SHARED_DATA("ifc/AC14-FZK-Haus.ifc");
     const fs::path file = kSharedData / "ifc/AC14-FZK-Haus.ifc";
     std::vector<std::string> notes;
     const auto t0 = std::chrono::steady_clock::now();
@@ -729,6 +734,7 @@ TEST(AssimpImport, IfcFzkHaus) {
 }
 
 TEST(AssimpImport, ThreeDsFiles) {
+    ABRAD_REQUIRE_SHARED_DATA("misc/fels.3ds");
     std::vector<std::string> notes;
     const RawModel test1 = read_assimp(kSharedData / "misc/test1.3ds", {}, notes);
     EXPECT_EQ(test1.faces.size(), 108U);
@@ -760,6 +766,7 @@ TEST(AssimpImport, ThreeDsFiles) {
 }
 
 TEST(AssimpImport, BadGltfFilesThrowOrImport) {
+    ABRAD_REQUIRE_SHARED_DATA("gltf_bad");
     const fs::path dir = kSharedData / "gltf_bad";
     std::vector<std::string> notes;
     // Bad normals: normals are not read, so the box imports as it is
@@ -784,7 +791,8 @@ TEST(AssimpImport, MissingEmptyDirectoryAndNonModelFiles) {
     expect_import_error(dir.write("list.glb", text), "");
     expect_import_error(dir.write("list.ifc", text), "");
     expect_import_error(dir.write("list.xyz", text), "cannot read");
-    // Truncated binary glTF
+    // Truncated binary glTF (the rest of the test runs without the shared data)
+    ABRAD_REQUIRE_SHARED_DATA("gltf_bad/BoxBadNormals-glTF-Binary/BoxBadNormals.glb");
     const std::string glb =
         read_bytes(kSharedData / "gltf_bad/BoxBadNormals-glTF-Binary/BoxBadNormals.glb");
     expect_import_error(dir.write("cut.glb", glb.substr(0, glb.size() / 2)), "");
@@ -830,6 +838,7 @@ TEST(AssimpImport, DamagedFilesNameTheirPlace) {
 }
 
 TEST(AssimpImport, InvalidOptions) {
+    ABRAD_REQUIRE_SHARED_DATA("misc/cube.ply");
     std::vector<std::string> notes;
     ImportOptions unit;
     unit.unit = "furlong";
@@ -844,6 +853,7 @@ TEST(AssimpImport, InvalidOptions) {
 /// Every file of the shared data (and truncated copies of the model files) either gives
 /// polygons or an ImportError naming it; nothing else escapes, nothing crashes.
 TEST(AssimpImport, EverySharedFileGivesPolygonsOrImportError) {
+    ABRAD_REQUIRE_SHARED_DATA("");
     TempDir dir;
     std::size_t files = 0;
     std::size_t imported = 0;

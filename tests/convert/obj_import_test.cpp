@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "shared_data.h"
 #include "temp_dir.h"
 
 namespace abrad::convert {
@@ -27,9 +28,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kSharedData{ABRAD_SHARED_DATA};
+const fs::path kSharedData = abrad::testing::shared_data();
 
-using testing::TempDir;
+using ::abrad::testing::TempDir;
 
 double triangle_area(const visdb::TriangleMesh& mesh, const glm::u32vec3& t) {
     return 0.5 * glm::length(glm::cross(mesh.positions[t.y] - mesh.positions[t.x],
@@ -260,6 +261,7 @@ TEST(ObjImport, StarPolygonsKeepTheirArea) {
 }
 
 TEST(ObjImport, SharedConcavePolygon) {
+    ABRAD_REQUIRE_SHARED_DATA("misc/concave_polygon.obj");
     const fs::path path = kSharedData / "misc" / "concave_polygon.obj";
     const ImportResult r = import_obj(path, {});
 
@@ -447,6 +449,7 @@ TEST(ObjImport, ErrorsNameFileAndLine) {
 }
 
 TEST(ObjImport, CornellBoxOriginal) {
+    ABRAD_REQUIRE_SHARED_DATA("cornell_box/CornellBox-Original.obj");
     const fs::path path = kSharedData / "cornell_box" / "CornellBox-Original.obj";
     const ImportResult r = import_obj(path, {.unit = "m", .up = 'y'});
     const ImportReport& rep = r.report;
@@ -489,6 +492,7 @@ TEST(ObjImport, CornellBoxOriginal) {
 }
 
 TEST(ObjImport, CornellBoxSphere) {
+    ABRAD_REQUIRE_SHARED_DATA("cornell_box/CornellBox-Sphere.obj");
     const fs::path path = kSharedData / "cornell_box" / "CornellBox-Sphere.obj";
     const ImportResult r = import_obj(path, {.unit = "m", .up = 'y'});
     EXPECT_EQ(r.report.faces_read, 2188u);

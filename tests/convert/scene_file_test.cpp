@@ -22,7 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-using testing::TempDir;
+using ::abrad::testing::TempDir;
 
 /// Writes `toml` to a temporary scene.toml and reads it.
 SceneFile parse(const std::string& toml) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "abrad/export/writers.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace abrad;
@@ -109,27 +110,27 @@ void check_round_trip(const fs::path& path) {
     EXPECT_EQ(idx[0], 0u);
     EXPECT_EQ(idx[1], 1u);
     EXPECT_EQ(idx[2], 2u);
-    if (!::testing::Test::HasFailure()) fs::remove(path);
 }
 
 }  // namespace
 
 TEST(GltfExport, RoundTripGltf) {
-    check_round_trip(fs::temp_directory_path() /
-                     ("abrad_gltf_" + std::to_string(::getpid()) + ".gltf"));
+    const abrad::testing::TempDir dir("gltf");
+    check_round_trip(dir / "round_trip.gltf");
 }
 
 TEST(GltfExport, RoundTripGlb) {
-    check_round_trip(fs::temp_directory_path() /
-                     ("abrad_gltf_" + std::to_string(::getpid()) + ".glb"));
+    const abrad::testing::TempDir dir("gltf");
+    check_round_trip(dir / "round_trip.glb");
 }
 
 TEST(GltfExport, RefusesOtherExtensionsAndBadMeshes) {
-    const fs::path p = fs::temp_directory_path() / "abrad_gltf_bad.obj";
+    const abrad::testing::TempDir dir("gltf");
+    const fs::path p = dir / "bad.obj";
     EXPECT_THROW(write_gltf(p, two_surfaces(), survey_mesh(), {}), ExportError);
+    EXPECT_FALSE(fs::exists(p));
     visdb::BakeMesh bad = survey_mesh();
     bad.radiosity.pop_back();
-    EXPECT_THROW(
-        write_gltf(fs::temp_directory_path() / "abrad_gltf_bad.gltf", two_surfaces(), bad, {}),
-        ExportError);
+    EXPECT_THROW(write_gltf(dir / "bad.gltf", two_surfaces(), bad, {}), ExportError);
+    EXPECT_FALSE(fs::exists(dir / "bad.gltf"));
 }

@@ -12,28 +12,12 @@
 #include <vector>
 
 #include "abrad/export/writers.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace abrad::exporter;
 
 namespace {
-
-fs::path temp_path(const std::string& name) {
-    const fs::path dir =
-        fs::temp_directory_path() / ("abrad_image_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
-    return dir / name;
-}
-
-// Removes the test folder when every test passed (a failure leaves the images to look at).
-class TempFolder : public ::testing::Environment {
-  public:
-    void TearDown() override {
-        if (!::testing::UnitTest::GetInstance()->Failed())
-            fs::remove_all(temp_path("x").parent_path());
-    }
-};
-const auto* const kTempFolder = ::testing::AddGlobalTestEnvironment(new TempFolder);
 
 double luminance(const glm::vec3& c) { return 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b; }
 
@@ -47,7 +31,8 @@ TEST(Image, SrgbEncodeDecodeRoundTrip) {
 }
 
 TEST(Image, ExrKeepsLinearValuesAboveOne) {
-    const fs::path p = temp_path("linear.exr");
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
+    const fs::path p = dir / "linear.exr";
     std::vector<float> rgb = {0.0f, 0.25f, 1.0f, 3.5f, 120.0f, 0.001f};  // 2x1 pixels
     write_image(p, 2, 1, rgb);
     const Image img = read_image(p);
@@ -58,7 +43,8 @@ TEST(Image, ExrKeepsLinearValuesAboveOne) {
 }
 
 TEST(Image, PngIsSrgbEncodedAndReadBackLinear) {
-    const fs::path p = temp_path("display.png");
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
+    const fs::path p = dir / "display.png";
     // Top row 0.5 grey, bottom row (0.2, 0.9, 2.0)
     std::vector<float> rgb = {0.5f, 0.5f, 0.5f, 0.2f, 0.9f, 2.0f};
     write_image(p, 1, 2, rgb);
@@ -72,7 +58,8 @@ TEST(Image, PngIsSrgbEncodedAndReadBackLinear) {
 }
 
 TEST(Image, WriteRejectsWrongBufferSizeNamingThePath) {
-    const fs::path p = temp_path("bad.png");
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
+    const fs::path p = dir / "bad.png";
     std::vector<float> rgb(5, 0.0f);
     try {
         write_image(p, 2, 1, rgb);
@@ -85,8 +72,9 @@ TEST(Image, WriteRejectsWrongBufferSizeNamingThePath) {
 }
 
 TEST(Image, ReadMissingFileNamesIt) {
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
     try {
-        (void)read_image(temp_path("missing.exr"));
+        (void)read_image(dir / "missing.exr");
         FAIL() << "no error";
     } catch (const ExportError& e) {
         EXPECT_NE(std::string(e.what()).find("missing.exr"), std::string::npos) << e.what();
@@ -109,13 +97,14 @@ TEST(FalseColour, LightnessRisesMonotonically) {
 }
 
 TEST(FalseColour, ImageHasValuesNoDataAndALabelledLegend) {
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
     const int w = 100, h = 160;
     std::vector<double> values(static_cast<std::size_t>(w * h));
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
             values[static_cast<std::size_t>(y * w + x)] = 5.0 * x;  // 0..495
     values[0] = std::nan("");
-    const fs::path p = temp_path("false.png");
+    const fs::path p = dir / "false.png";
     write_false_colour_image(p, w, h, values, 0.0, 500.0, "W/m\u00b2");
     const Image img = read_image(p);
     ASSERT_GE(img.width, w + 90);
@@ -139,10 +128,11 @@ TEST(FalseColour, ImageHasValuesNoDataAndALabelledLegend) {
 }
 
 TEST(FalseColour, WithoutTheFontTheBitmapFontDrawsTheLabels) {
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
     const int w = 40, h = 200;
     std::vector<double> values(static_cast<std::size_t>(w * h), 3.0);
-    const fs::path p = temp_path("bitmap.png");
-    write_false_colour_image(p, w, h, values, 0.0, 1000.0, "lux", temp_path("no-such-font.ttf"));
+    const fs::path p = dir / "bitmap.png";
+    write_false_colour_image(p, w, h, values, 0.0, 1000.0, "lux", dir / "no-such-font.ttf");
     const Image img = read_image(p);
     // Labels "0", "250", "500", "750", "1000" and "lux" in white 5x7 glyphs right of the bar
     int white = 0;
@@ -160,10 +150,11 @@ TEST(FalseColour, WithoutTheFontTheBitmapFontDrawsTheLabels) {
 }
 
 TEST(FalseColour, SmallGridsAreEnlargedInBlocks) {
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
     // A 4 x 3 calculation grid: enlarged 54 times to 216 x 162 pixels, each value a block
     const std::vector<double> values = {0,   100, 200, 300, 400,  500,
                                         600, 700, 800, 900, 1000, std::nan("")};
-    const fs::path p = temp_path("grid.png");
+    const fs::path p = dir / "grid.png";
     write_false_colour_image(p, 4, 3, values, 0.0, 1000.0, "lux");
     const Image img = read_image(p);
     EXPECT_EQ(img.height, 162);
@@ -178,12 +169,13 @@ TEST(FalseColour, SmallGridsAreEnlargedInBlocks) {
 }
 
 TEST(FalseColour, RejectsAnEmptyRangeAndWrongSizes) {
+    const abrad::testing::TempDir dir("image");  // kept if the test fails
     std::vector<double> values(4, 1.0);
-    EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 2, 2, values, 1.0, 1.0, "lux"),
+    EXPECT_THROW(write_false_colour_image(dir / "e.png", 2, 2, values, 1.0, 1.0, "lux"),
                  ExportError);
-    EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 3, 2, values, 0.0, 1.0, "lux"),
+    EXPECT_THROW(write_false_colour_image(dir / "e.png", 3, 2, values, 0.0, 1.0, "lux"),
                  ExportError);
-    EXPECT_THROW(write_false_colour_image(temp_path("e.png"), 2, 2, values, 0.0,
+    EXPECT_THROW(write_false_colour_image(dir / "e.png", 2, 2, values, 0.0,
                                           std::numeric_limits<double>::infinity(), "lux"),
                  ExportError);
 }

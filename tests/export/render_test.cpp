@@ -19,6 +19,7 @@
 #include "abrad/export/image.h"
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/form_factor.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace abrad;
@@ -93,24 +94,6 @@ void povray(const fs::path& dir, int w, int h) {
     (void)dir, (void)w, (void)h;
 #endif
 }
-
-fs::path temp_dir(const std::string& name) {
-    const fs::path d =
-        fs::temp_directory_path() / ("abrad_render_test_" + std::to_string(::getpid())) / name;
-    fs::create_directories(d);
-    return d;
-}
-
-// Removes the test folder when every test passed (a failure leaves the images to look at).
-class TempFolder : public ::testing::Environment {
-  public:
-    void TearDown() override {
-        if (!::testing::UnitTest::GetInstance()->Failed())
-            fs::remove_all(fs::temp_directory_path() /
-                           ("abrad_render_test_" + std::to_string(::getpid())));
-    }
-};
-const auto* const kTempFolder = ::testing::AddGlobalTestEnvironment(new TempFolder);
 
 }  // namespace
 
@@ -265,7 +248,8 @@ TEST(Camera, SelectByNameFirstOrDefault) {
 }
 
 TEST(PovExport, WritesOneMesh2PerSurfaceWithExactVertexColours) {
-    const fs::path dir = temp_dir("pov_text");
+    const abrad::testing::TempDir tmp("render");  // kept with its files if the test fails
+    const fs::path& dir = tmp.path();
     visdb::Scene scene;
     scene.surfaces.resize(2);
     scene.surfaces[0].name = "floor";
@@ -293,12 +277,12 @@ TEST(PovExport, WritesOneMesh2PerSurfaceWithExactVertexColours) {
     EXPECT_NE(text.find("<0,2,1>,0,2,1"), std::string::npos);  // POV-Ray's front is left-handed
     EXPECT_NE(text.find("interior_texture { Abrad_Back }"), std::string::npos);
     EXPECT_FALSE(fs::exists(dir / "scene.pov.tmp"));
-    if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
 TEST(PovExport, PovRayRendersTheSameImageAsAbrad) {
     if (!have_povray()) GTEST_SKIP() << "povray not installed";
-    const fs::path dir = temp_dir("pov_vs_own");
+    const abrad::testing::TempDir tmp("render");
+    const fs::path& dir = tmp.path();
     const int w = 80, h = 60;
     const double exposure = 0.05;
     visdb::Scene scene;
@@ -323,12 +307,12 @@ TEST(PovExport, PovRayRendersTheSameImageAsAbrad) {
         if (std::abs(own.rgb[i] - pov.rgb[i]) <= 2e-3f * std::max(1.0f, own.rgb[i])) ++close;
     EXPECT_GT(close, static_cast<int>(0.99 * static_cast<double>(own.rgb.size())))
         << d.to_string() << "; images in " << dir;
-    if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
 TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) {
     if (!have_povray()) GTEST_SKIP() << "povray not installed";
-    const fs::path dir = temp_dir("pov_reference");
+    const abrad::testing::TempDir tmp("render");
+    const fs::path& dir = tmp.path();
     // A floor (rho 0.5) under a 1 x 1 m emitter at z = 2 facing down, E = 100 W/m²
     visdb::Scene s;
     s.materials = {{.name = "floor", .reflectance = {0.5, 0.5, 0.5}},
@@ -377,7 +361,6 @@ TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) 
         }
     EXPECT_GT(checked, 100);
     RecordProperty("worst_relative_error", std::to_string(worst));
-    if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
 TEST(PovReference, RadiosityBouncesAddIndirectLightInAClosedRoom) {
@@ -387,8 +370,10 @@ TEST(PovReference, RadiosityBouncesAddIndirectLightInAClosedRoom) {
     const visdb::Scene s = box_room();
     const int w = 48, h = 36;
     double mean[2] = {0.0, 0.0};
+    const abrad::testing::TempDir images("render");
     for (int bounces = 0; bounces < 2; ++bounces) {
-        const fs::path dir = temp_dir("pov_radiosity_" + std::to_string(bounces));
+        const fs::path dir = images / ("bounces_" + std::to_string(bounces));
+        fs::create_directories(dir);
         write_pov_reference(
             dir / "scene.pov", s,
             {.view = {.camera = default_camera(s), .width = w, .height = h, .exposure = 0.1},
@@ -401,10 +386,6 @@ TEST(PovReference, RadiosityBouncesAddIndirectLightInAClosedRoom) {
             mean[bounces] += std::min(static_cast<double>(v), 4.0);  // the light clipped
         mean[bounces] /= static_cast<double>(img.rgb.size());
     }
-    EXPECT_GT(mean[1], 1.2 * mean[0]) << "images in " << temp_dir("");
-    EXPECT_LT(mean[1], 2.0 * mean[0]) << "images in " << temp_dir("");
-    if (!::testing::Test::HasFailure()) {
-        fs::remove_all(temp_dir("pov_radiosity_0"));
-        fs::remove_all(temp_dir("pov_radiosity_1"));
-    }
+    EXPECT_GT(mean[1], 1.2 * mean[0]) << "images in " << images.path();
+    EXPECT_LT(mean[1], 2.0 * mean[0]) << "images in " << images.path();
 }

@@ -22,6 +22,8 @@
 #include <variant>
 #include <vector>
 
+#include "temp_dir.h"
+
 namespace abrad::exporter {
 namespace {
 
@@ -220,32 +222,8 @@ T get(const PlyElement& e, std::size_t row, const std::string& property) {
 // ---------------------------------------------------------------------------------------------
 // Fixtures
 
-/// A directory of its own for one test, removed afterwards.
-class TempDir {
-  public:
-    TempDir() {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        m_path = fs::temp_directory_path() / ("abrad_export_test_" + std::to_string(::getpid()) +
-                                              "_" + info->test_suite_name() + "_" + info->name());
-        fs::remove_all(m_path);
-        fs::create_directories(m_path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(m_path, ec);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-
-    fs::path operator/(const std::string& name) const { return m_path / name; }
-    std::size_t entry_count() const {
-        return static_cast<std::size_t>(
-            std::distance(fs::directory_iterator(m_path), fs::directory_iterator{}));
-    }
-
-  private:
-    fs::path m_path;
-};
+/// A directory of its own for one test, removed when it passes (temp_dir.h).
+using abrad::testing::TempDir;
 
 constexpr double kLn2 = 0.69314718055994530942;
 

@@ -17,20 +17,9 @@
 namespace abrad::radiosity {
 namespace {
 
-using abrad::testing::grid;
-
-// Floor 2×2 m (8×8 cells) under a 1×1 m light at 1.5 m, E = (10, 20, 5) W/m², ρ_floor = 0.5.
-visdb::Scene paper_scene(bool occluder) {
-    visdb::Scene scene;
-    scene.materials.push_back({"floor", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
-    scene.materials.push_back({"light", {0, 0, 0}, {10, 20, 5}, 1.0});
-    scene.materials.push_back({"occluder", {0.3, 0.3, 0.3}, {0, 0, 0}, 1.0});
-    scene.surfaces.push_back(grid("floor", 0, -1, 1, -1, 1, 0, 8, true));
-    scene.surfaces.push_back(grid("light", 1, -0.5, 0.5, -0.5, 0.5, 1.5, 1, false));
-    if (occluder)
-        scene.surfaces.push_back(grid("occluder", 2, -0.2, 0.2, -0.2, 0.2, 0.75, 1, true));
-    return scene;
-}
+// Floor 2×2 m (8×8 cells) under a 1×1 m light at 1.5 m, E = (10, 20, 5) W/m², ρ_floor = 0.5,
+// with or without the 0.4 m occluder half way (scenes.h).
+visdb::Scene paper_scene(bool occluder) { return abrad::testing::floor_and_light(8, occluder); }
 
 // Form factor from floor point x to the light ∩ rectangle, both at height 1.5.
 double ff_light_part(const glm::dvec3& x, double sx0, double sx1, double sy0, double sy1) {

@@ -25,15 +25,8 @@ using abrad::testing::quad_grid;
 // occluder at 0.75 m, and a 2-triangle wall standing on the floor's edge at x = 1 facing -x
 // (its foot meets the floor's vertices: T-vertices in the input).
 visdb::Scene room(int floor_cells) {
-    visdb::Scene scene;
-    scene.materials.push_back({"floor", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
-    scene.materials.push_back({"light", {0, 0, 0}, {10, 20, 5}, 1.0});
-    scene.materials.push_back({"occluder", {0.3, 0.3, 0.3}, {0, 0, 0}, 1.0});
+    visdb::Scene scene = abrad::testing::floor_and_light(floor_cells, true);
     scene.materials.push_back({"wall", {0.7, 0.7, 0.7}, {0, 0, 0}, 1.0});
-    scene.surfaces.push_back(quad_grid("floor", 0, {-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, floor_cells));
-    scene.surfaces.push_back(quad_grid("light", 1, {-0.5, -0.5, 1.5}, {0, 1, 0}, {1, 0, 0}, 1));
-    scene.surfaces.push_back(
-        quad_grid("occluder", 2, {-0.2, -0.2, 0.75}, {0.4, 0, 0}, {0, 0.4, 0}, 1));
     scene.surfaces.push_back(quad_grid("wall", 3, {1, -1, 0}, {0, 0, 1.5}, {0, 2, 0}, 1));
     return scene;
 }

@@ -30,16 +30,8 @@ using abrad::testing::quad_grid;
 constexpr double kGreen = 20.0;  // the light's G emittance, W/m²
 
 // Floor [-1,1]² (8×8 cells) under a 1×1 m light at 1.5 m facing down, E = (10, 20, 5) W/m²,
-// floor ρ = 0.5; materials 0 floor, 1 light, 2 grey (ρ 0.3).
-visdb::Scene base_scene() {
-    visdb::Scene scene;
-    scene.materials.push_back({"floor", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
-    scene.materials.push_back({"light", {0, 0, 0}, {10, kGreen, 5}, 1.0});
-    scene.materials.push_back({"grey", {0.3, 0.3, 0.3}, {0, 0, 0}, 1.0});
-    scene.surfaces.push_back(grid("floor", 0, -1, 1, -1, 1, 0, 8, true));
-    scene.surfaces.push_back(grid("light", 1, -0.5, 0.5, -0.5, 0.5, 1.5, 1, false));
-    return scene;
-}
+// floor ρ = 0.5; materials 0 floor, 1 light, 2 grey (ρ 0.3) (scenes.h).
+visdb::Scene base_scene() { return abrad::testing::floor_and_light(8); }
 
 // Unoccluded form factor from floor point x (normal +z) to the light [-0.5,0.5]² at 1.5 m.
 double ff_light(const glm::dvec3& x) {

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "run_abrad.h"
+#include "temp_dir.h"
 
 namespace {
 
@@ -22,18 +23,9 @@ Outcome abrad(const std::string& args) { return ::abrad::testing::run_abrad(args
 
 class BenchCli : public ::testing::Test {
   protected:
-    void SetUp() override {
-        m_dir = fs::temp_directory_path() /
-                ("abrad_bench_cli_" + std::to_string(getpid()) + "_" +
-                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(m_dir);
-        fs::create_directories(m_dir);
-    }
-    void TearDown() override {
-        if (!HasFailure()) fs::remove_all(m_dir);
-    }
-    std::string path(const std::string& name) const { return (m_dir / name).string(); }
-    fs::path m_dir;
+    std::string path(const std::string& name) const { return m_dir.file(name); }
+    // This test's own folder, removed when it passes (temp_dir.h)
+    abrad::testing::TempDir m_dir{"bench_cli"};
 };
 
 TEST_F(BenchCli, GenerateWritesAFloorThatBakes) {

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "abrad/tools/floor_gen.h"
+#include "temp_dir.h"
 
 namespace abrad::tools {
 namespace {
@@ -52,8 +53,8 @@ TEST(Bench, SettingsGridCoversTheIssuesGrid) {
 }
 
 TEST(Bench, QuickRunWritesCsvAndSummaryWithRealValues) {
-    const fs::path out = fs::temp_directory_path() / ("abrad_bench_" + std::to_string(getpid()));
-    fs::remove_all(out);
+    const abrad::testing::TempDir dir("bench");
+    const fs::path out = dir / "out";
     BenchOptions o;
     o.out = out;
     o.quick = true;
@@ -102,7 +103,6 @@ TEST(Bench, QuickRunWritesCsvAndSummaryWithRealValues) {
     text << md.rdbuf();
     EXPECT_NE(text.str().find("Pareto-best settings"), std::string::npos);
     EXPECT_NE(text.str().find("## Scaling on generated floors"), std::string::npos);
-    fs::remove_all(out);
 }
 
 TEST(FloorGen, OneRoomHasItsAreasAndFacesInwards) {

@@ -24,6 +24,8 @@
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/visdb/store.h"
 #include "run_abrad.h"
+#include "shared_data.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -41,16 +43,6 @@ std::string bytes(const fs::path& p) {
 
 class Cli : public ::testing::Test {
   protected:
-    void SetUp() override {
-        m_dir = fs::temp_directory_path() /
-                ("abrad_cli_" + std::to_string(getpid()) + "_" +
-                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(m_dir);
-        fs::create_directories(m_dir);
-    }
-    void TearDown() override {
-        if (!HasFailure()) fs::remove_all(m_dir);
-    }
     fs::path path(const std::string& name) const { return m_dir / name; }
     std::string write(const std::string& name, const std::string& text) const {
         std::ofstream(path(name)) << text;
@@ -68,7 +60,8 @@ class Cli : public ::testing::Test {
         return db;
     }
 
-    fs::path m_dir;
+    // This test's own folder, removed when it passes (temp_dir.h)
+    abrad::testing::TempDir m_dir{"cli"};
 };
 
 TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
@@ -182,7 +175,7 @@ TEST_F(Cli, KilledBakeLeavesDatabaseReadableAndUnchanged) {
 // an unoccluded floor vertex carries the closed-form irradiance of the 1×1 m light.
 TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
     const Result r = run("run --bounces 0 " + sample("paper_simple/paper_occluder.obj") +
-                         " --out " + m_dir.string());
+                         " --out " + m_dir.path().string());
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string ply = bytes(path("paper_occluder.ply"));
     const std::string header_end = "end_header\n";
@@ -291,7 +284,7 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
 // surface keeps its area.
 TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
     const Result r = run("run --bounces 0 " + sample("furnished_room/furnished_room.obj") +
-                         " --out " + m_dir.string());
+                         " --out " + m_dir.path().string());
     ASSERT_EQ(r.status, 0) << r.output;
     auto store = abrad::visdb::Store::open(path("furnished_room.visdb").string(),
                                            abrad::visdb::OpenMode::ReadWrite);
@@ -472,8 +465,8 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
 // imports, and bakes when it has lights, or is refused with exit 2 and a message naming it.
 // The abrad under test is built with AddressSanitizer in CI: no import may crash.
 TEST_F(Cli, EverySharedDataFileImportsOrIsRefusedByName) {
-    const fs::path data{ABRAD_SHARED_DATA};
-    ASSERT_TRUE(fs::is_directory(data)) << data;
+    ABRAD_REQUIRE_SHARED_DATA("");
+    const fs::path data = abrad::testing::shared_data();
     std::size_t imported = 0, refused = 0, baked = 0;
     for (const auto& entry : fs::recursive_directory_iterator(data)) {
         if (!entry.is_regular_file()) continue;
@@ -539,10 +532,11 @@ glm::dvec3 probe_point(const std::string& db, const std::string& points_file) {
 // the right place with E = Φ / A, the bake is in lux, and the floor of the living room gets
 // what the closed form says its two panels give.
 TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
+    ABRAD_REQUIRE_SHARED_DATA("ifc/AC14-FZK-Haus.ifc");
     const std::string db = path("haus.visdb").string();
     const Result imported =
-        run("import " + std::string(ABRAD_SHARED_DATA) + "/ifc/AC14-FZK-Haus.ifc --db " + db +
-            " --scene " + sample("fzk_haus/scene.toml"));
+        run("import " + abrad::testing::shared_data("ifc/AC14-FZK-Haus.ifc").string() + " --db " +
+            db + " --scene " + sample("fzk_haus/scene.toml"));
     ASSERT_EQ(imported.status, 0) << imported.output;
     EXPECT_NE(imported.output.find("emitters added: 6"), std::string::npos) << imported.output;
     EXPECT_NE(imported.output.find("coplanar overlapping triangle pairs (z-fighting): "),
@@ -591,10 +585,10 @@ TEST_F(Cli, FzkHausSampleImportsWithItsSceneFileAndBakes) {
 // file's 3600 lm uplight: the unit converts, the panel lands where the scene file says and
 // the bake runs with discontinuity meshing.
 TEST_F(Cli, DxfPlanSampleBakesWithMillimetresConverted) {
+    ABRAD_REQUIRE_SHARED_DATA("dxf/3dface.dxf");
     const std::string db = path("plan.visdb").string();
-    const Result imported =
-        run("import " + std::string(ABRAD_SHARED_DATA) + "/dxf/3dface.dxf --db " + db +
-            " --scene " + sample("dxf_plan/scene.toml"));
+    const Result imported = run("import " + abrad::testing::shared_data("dxf/3dface.dxf").string() +
+                                " --db " + db + " --scene " + sample("dxf_plan/scene.toml"));
     ASSERT_EQ(imported.status, 0) << imported.output;
     const Result baked = run("bake --bounces 0 --db " + db + " --name dm");
     ASSERT_EQ(baked.status, 0) << baked.output;

@@ -25,6 +25,8 @@
 #include <string>
 #include <vector>
 
+#include "temp_dir.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -35,28 +37,8 @@ using visdb::StoreError;
 // ---------------------------------------------------------------------------------------
 // Scratch files and raw SQLite access
 
-// A fresh directory per test, removed afterwards.
-class ScratchDir {
-  public:
-    ScratchDir() {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        m_path = fs::temp_directory_path() /
-                 ("abrad_visdb_" + std::to_string(::getpid()) + "_" + info->name());
-        fs::remove_all(m_path);
-        fs::create_directories(m_path);
-    }
-    ~ScratchDir() {
-        std::error_code ec;
-        fs::remove_all(m_path, ec);
-    }
-    ScratchDir(const ScratchDir&) = delete;
-    ScratchDir& operator=(const ScratchDir&) = delete;
-
-    std::string file(const std::string& name) const { return (m_path / name).string(); }
-
-  private:
-    fs::path m_path;
-};
+// A fresh directory per test, removed when the test passes.
+using abrad::testing::TempDir;
 
 // A raw connection, for inspecting and damaging files behind the store's back.
 class RawDb {
@@ -382,7 +364,7 @@ visdb::Bake make_bake(const std::string& name, std::size_t quads, float tint) {
 // Round trips
 
 TEST(Store, SceneRoundTripIsBitExact) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("scene.visdb");
     const visdb::Scene scene = make_scene();
     {
@@ -397,7 +379,7 @@ TEST(Store, SceneRoundTripIsBitExact) {
 }
 
 TEST(Store, SecondImportAppendsAndRemapsIndices) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("two.visdb");
     const visdb::Scene first = make_scene();
 
@@ -444,7 +426,7 @@ TEST(Store, SecondImportAppendsAndRemapsIndices) {
 }
 
 TEST(Store, BakeRoundTripKeepsOrderAndArrays) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("bake.visdb");
     const visdb::Bake bake = make_bake("nightly", 7, 3.5f);
     std::int64_t id = 0;
@@ -462,7 +444,7 @@ TEST(Store, BakeRoundTripKeepsOrderAndArrays) {
 }
 
 TEST(Store, EmptyBakeMeshRoundTrips) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("empty.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     visdb::Bake bake = make_bake("nothing", 0, 0.0f);
@@ -473,7 +455,7 @@ TEST(Store, EmptyBakeMeshRoundTrips) {
 }
 
 TEST(Store, ListBakesSummarisesOldestFirst) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     auto store = visdb::Store::open(dir.file("list.visdb"), OpenMode::CreateOrOpen);
     EXPECT_TRUE(store.list_bakes().empty());
     const std::vector<visdb::Bake> bakes = {make_bake("a", 1, 1.0f), make_bake("b", 2, 2.0f),
@@ -506,7 +488,7 @@ TEST(Store, ListBakesSummarisesOldestFirst) {
 }
 
 TEST(Store, EmptyNameLoadsLatestBake) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("latest.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     expect_store_error([&] { store.load_bake(); }, {path, "no bakes"});
@@ -519,7 +501,7 @@ TEST(Store, EmptyNameLoadsLatestBake) {
 }
 
 TEST(Store, SameNameReplacesBakeAndItsRows) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("replace.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     const auto old_id = store.add_bake(make_bake("nightly", 2, 1.0f));
@@ -549,7 +531,7 @@ TEST(Store, SameNameReplacesBakeAndItsRows) {
 }
 
 TEST(Store, UnknownBakeNameThrows) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("unknown.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     store.add_bake(make_bake("nightly", 1, 1.0f));
@@ -557,7 +539,7 @@ TEST(Store, UnknownBakeNameThrows) {
 }
 
 TEST(Store, InvalidBakeIsRejectedBeforeWriting) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("invalid_bake.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     const std::string before = dump(path);
@@ -575,7 +557,7 @@ TEST(Store, InvalidBakeIsRejectedBeforeWriting) {
 // Transactions
 
 TEST(Store, ProgressIsReportedInsideTheTransaction) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("progress.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     std::vector<double> fractions;
@@ -596,7 +578,7 @@ TEST(Store, ProgressIsReportedInsideTheTransaction) {
 }
 
 TEST(Store, ThrowingProgressRollsBackAndKeepsOldBake) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("cancel.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     const visdb::Bake original = make_bake("nightly", 3, 1.0f);
@@ -626,7 +608,7 @@ TEST(Store, ThrowingProgressRollsBackAndKeepsOldBake) {
 }
 
 TEST(Store, FailingImportWritesNothing) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("bad_import.visdb");
     auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
     store.add_import(make_scene());
@@ -647,7 +629,7 @@ TEST(Store, FailingImportWritesNothing) {
 }
 
 TEST(Store, EmittanceUnitIsKeptAndNeverMixed) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("units.visdb");
     visdb::Scene lit = make_scene();  // has an emitter (the lamp)
     lit.emittance_unit = "lm/m2";
@@ -675,7 +657,7 @@ TEST(Store, EmittanceUnitIsKeptAndNeverMixed) {
 // Schema and opening
 
 TEST(Store, Version1DatabaseMigratesKeepingItsScene) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("v1.visdb");
     visdb::Scene scene = make_scene();
     scene.grids.clear();
@@ -695,7 +677,7 @@ TEST(Store, Version1DatabaseMigratesKeepingItsScene) {
 }
 
 TEST(Store, SchemaIsVersionedAndMarked) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("schema.visdb");
     EXPECT_EQ(visdb::Store::open(path, OpenMode::CreateOrOpen).schema_version(),
               visdb::kSchemaVersion);
@@ -710,7 +692,7 @@ TEST(Store, SchemaIsVersionedAndMarked) {
 }
 
 TEST(Store, EmptyFileGetsSchemaOnlyWithCreateOrOpen) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("empty.visdb");
     std::ofstream(path).close();
     expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadWrite); },
@@ -721,7 +703,7 @@ TEST(Store, EmptyFileGetsSchemaOnlyWithCreateOrOpen) {
 }
 
 TEST(Store, PlainTextFileIsNotAnAbradDatabase) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("notes.txt");
     const std::string text = "these are not the bytes you are looking for\n";
     std::ofstream(path) << text;
@@ -733,7 +715,7 @@ TEST(Store, PlainTextFileIsNotAnAbradDatabase) {
 }
 
 TEST(Store, SqliteFileWithoutMetaIsNotAnAbradDatabase) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string foreign = dir.file("foreign.db");
     RawDb(foreign, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE)
         .exec("CREATE TABLE t(x); INSERT INTO t VALUES (1)");
@@ -760,7 +742,7 @@ TEST(Store, SqliteFileWithoutMetaIsNotAnAbradDatabase) {
 }
 
 TEST(Store, NewerSchemaVersionIsRejected) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("future.visdb");
     visdb::Store::open(path, OpenMode::CreateOrOpen);
     const int future = visdb::kSchemaVersion + 1;
@@ -774,7 +756,7 @@ TEST(Store, NewerSchemaVersionIsRejected) {
 }
 
 TEST(Store, MissingFileThrowsAndIsNotCreated) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("missing.visdb");
     expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly); },
                        {path + ": no such database"});
@@ -786,7 +768,7 @@ TEST(Store, MissingFileThrowsAndIsNotCreated) {
 }
 
 TEST(Store, ReadOnlyStoreRefusesWrites) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("ro.visdb");
     visdb::Store::open(path, OpenMode::CreateOrOpen);
     const std::string before = read_file(path);
@@ -797,7 +779,7 @@ TEST(Store, ReadOnlyStoreRefusesWrites) {
 }
 
 TEST(Store, MovedStoreKeepsWorking) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("moved.visdb");
     auto a = visdb::Store::open(path, OpenMode::CreateOrOpen);
     visdb::Store b = std::move(a);
@@ -810,7 +792,7 @@ TEST(Store, MovedStoreKeepsWorking) {
 // Corruption
 
 TEST(Store, TruncatedPositionsBlobIsCorrupt) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("truncated.visdb");
     visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(make_scene());
     RawDb(path).exec(
@@ -821,7 +803,7 @@ TEST(Store, TruncatedPositionsBlobIsCorrupt) {
 }
 
 TEST(Store, TriangleIndexOutOfRangeIsCorrupt) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("index.visdb");
     visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(make_scene());
     // One triangle {0, 1, 3}, little-endian, on a surface of 3 vertices
@@ -833,7 +815,7 @@ TEST(Store, TriangleIndexOutOfRangeIsCorrupt) {
 }
 
 TEST(Store, CountMismatchIsCorrupt) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("count.visdb");
     visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(make_scene());
     RawDb(path).exec("UPDATE surfaces SET vertex_count = 5 WHERE name = 'wall'");
@@ -842,7 +824,7 @@ TEST(Store, CountMismatchIsCorrupt) {
 }
 
 TEST(Store, CorruptBakeMeshIsRejected) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("bake_corrupt.visdb");
     {
         auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
@@ -939,7 +921,7 @@ void expect_kill_leaves_file_as_before(const std::string& path, const visdb::Bak
 }
 
 TEST(StoreKill, KilledAfterFirstRowsLeavesFileAsBefore) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     expect_kill_leaves_file_as_before(
         dir.file("kill_early.visdb"), make_bake("second", 5, 2.0f),
         [](double f) { return f > 0.0; }, false);
@@ -949,14 +931,14 @@ TEST(StoreKill, KilledWhileReplacingBeforeCommitLeavesFileAsBefore) {
     // Same name: the original is deleted inside the transaction. The mesh (~13 MB) is larger
     // than SQLite's page cache, so pages spill into the database file before the kill and the
     // rollback has real work to do.
-    ScratchDir dir;
+    const TempDir dir("visdb");
     const std::string path = dir.file("kill_late.visdb");
     expect_kill_leaves_file_as_before(
         path, make_bake("nightly", 50000, 2.0f), [](double f) { return f >= 1.0; }, true);
 }
 
 TEST(StoreKill, KilledMidBlobLeavesFileAsBefore) {
-    ScratchDir dir;
+    const TempDir dir("visdb");
     expect_kill_leaves_file_as_before(
         dir.file("kill_mid.visdb"), make_bake("nightly", 50000, 2.0f),
         [](double f) { return f > 0.5; }, true);

@@ -115,6 +115,7 @@ double dm_seconds(const visdb::BakeStats& s) { return s.dm ? s.dm->seconds : 0.0
 // Runs a program without a shell; returns its exit status, or -1 when it could not start.
 int run_program(const std::vector<std::string>& args) {
     std::vector<char*> argv;
+    argv.reserve(args.size() + 1);
     for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
     pid_t pid = 0;

@@ -221,9 +221,9 @@ visdb::Scene generate_floor(const FloorOptions& o) {
                 // Slots on a 4 x 4 grid over the room's middle, away from the doors
                 visdb::Surface& s = surface(room + "_furniture", kFurniture);
                 for (int k = 0; k < o.furniture; ++k) {
-                    const int slot = (k * 5) % 16;
-                    const glm::dvec2 c{x0 + o.room_x * (0.2 + 0.2 * (slot % 4)),
-                                       y0 + o.room_y * (0.2 + 0.2 * (slot / 4))};
+                    const int slot = (k * 5) % 16, column = slot % 4, row = slot / 4;
+                    const glm::dvec2 c{x0 + o.room_x * (0.2 + 0.2 * column),
+                                       y0 + o.room_y * (0.2 + 0.2 * row)};
                     add_furniture(s, k, c, o.cell);
                 }
             }
@@ -233,8 +233,9 @@ visdb::Scene generate_floor(const FloorOptions& o) {
                 const int cols = static_cast<int>(std::ceil(std::sqrt(double(o.lights))));
                 const int rows = (o.lights + cols - 1) / cols;
                 for (int k = 0; k < o.lights; ++k) {
-                    const double cx = x0 + o.room_x * (k % cols + 0.5) / cols;
-                    const double cy = y0 + o.room_y * (k / cols + 0.5) / rows;
+                    const int column = k % cols, row = k / cols;  // integer division
+                    const double cx = x0 + o.room_x * (column + 0.5) / cols;
+                    const double cy = y0 + o.room_y * (row + 0.5) / rows;
                     add_rect(s, {cx - 0.3, cy - 0.3, o.height - 0.005}, {0.6, 0, 0}, {0, 0.6, 0},
                              {0, 0, -1}, 1.0);
                 }

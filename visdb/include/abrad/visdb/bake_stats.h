@@ -4,6 +4,7 @@
 // the tests. The store's rows keep the historical keys (`dm_rounds`...), listed once, in
 // `for_each_stat`.
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -235,7 +236,7 @@ inline BakeStats stats_from_pairs(const std::vector<std::pair<std::string, doubl
         const double v = pairs[it->second].second;
         using T = std::remove_reference_t<decltype(field)>;
         if constexpr (std::is_integral_v<T>) {
-            field = v >= 0.0 && v < 1.8e19 ? static_cast<T>(v + 0.5) : T{0};
+            field = v >= 0.0 && v < 1.8e19 ? static_cast<T>(std::nearbyint(v)) : T{0};
         } else {
             field = v;
         }
