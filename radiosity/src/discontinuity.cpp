@@ -10,12 +10,15 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstring>
+#include <numeric>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
 
+#include "abrad/check.h"
 #include "abrad/radiosity/direct.h"
 #include "stages.h"
 
@@ -71,6 +74,13 @@ std::size_t add_constraints(std::vector<std::vector<ShadowSegment>>& segments, R
     }
     segments = {};
     return constraints;
+}
+
+double mesh_area(const visdb::BakeMesh& m) {
+    double a = 0.0;
+    for (const glm::u32vec3& t : m.triangles)
+        a += visdb::triangle_area(m.positions[t.x], m.positions[t.y], m.positions[t.z]);
+    return a;
 }
 
 // The meshed regions as one bake mesh (each region's vertices its own).
@@ -235,6 +245,11 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     }
     st.seconds = seconds_since(t_dm);
     if (stats) stats->dm = st;
+    // Re-meshing keeps every region's area (dm_mesh.h: to 1e-9 relative)
+    ABRAD_DCHECK(
+        std::abs(mesh_area(out.mesh) - std::accumulate(g.area.begin(), g.area.end(), 0.0)) <=
+            1e-6 * std::accumulate(g.area.begin(), g.area.end(), 0.0),
+        "the discontinuity mesh changed the area of the scene");
     return out;
 }
 

@@ -3,8 +3,11 @@
 // docs/algorithms.md#interreflection).
 
 #include <algorithm>
+#include <cmath>
+#include <string>
 #include <vector>
 
+#include "abrad/check.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
@@ -30,6 +33,13 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
                              .subpixels = options.subpixels};
     IndirectSolution s = solve_indirect(input, io, progress);
     if (options.convergence) *options.convergence = s.curve;
+    // Every watt emitted is absorbed, escaped or still unshot (an identity of the shots)
+    ABRAD_DCHECK(
+        std::abs(s.energy.emitted - s.energy.absorbed - s.energy.escaped - s.energy.unshot) <=
+            1e-4 * s.energy.emitted,
+        "energy balance: emitted " + std::to_string(s.energy.emitted) + " W, absorbed " +
+            std::to_string(s.energy.absorbed) + " + escaped " + std::to_string(s.energy.escaped) +
+            " + unshot " + std::to_string(s.energy.unshot));
     if (stats) {
         visdb::InterreflectionStats& i = stats->indirect.emplace();
         i.elements = s.elements.size();

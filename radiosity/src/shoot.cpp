@@ -13,9 +13,11 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 #include <utility>
 
+#include "abrad/check.h"
 #include "abrad/radiosity/polygon.h"
 
 namespace abrad::radiosity {
@@ -561,6 +563,10 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     std::vector<std::uint64_t> pairs;
     std::chrono::steady_clock::duration occlusion_time{};
     resolve_pixels<S>(buffer, patches, hc, options, result, pairs, occlusion_time);
+    // The patches absorb or stop at most what leaves the shooting point (ΔF sum to 1)
+    ABRAD_DCHECK(
+        std::accumulate(result.form_factor.begin(), result.form_factor.end(), 0.0) <= 1.0 + 1e-9,
+        "form factors from one point sum to more than 1");
 
     // Deduplicate occlusion pairs
     const auto t_dedup = std::chrono::steady_clock::now();

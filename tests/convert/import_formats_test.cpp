@@ -9,6 +9,7 @@
 #include <string>
 
 #include "abrad/convert/import.h"
+#include "temp_dir.h"
 
 namespace abrad::convert {
 namespace {
@@ -41,8 +42,8 @@ TEST(ImportFormats, SupportedExtensionsAreTheReadableFormatsInTableOrder) {
 }
 
 TEST(ImportFormats, UnavailableAndUnknownFormatsAreRefusedByName) {
-    const fs::path dir = fs::temp_directory_path() / "abrad_import_formats_test";
-    fs::create_directories(dir);
+    const abrad::testing::TempDir scratch("convert");
+    const fs::path& dir = scratch.path();
     for (const char* name : {"part.STEP", "part.stp", "part.igs"}) {
         const fs::path p = dir / name;
         std::ofstream(p) << "ISO-10303-21;\n";
@@ -54,7 +55,6 @@ TEST(ImportFormats, UnavailableAndUnknownFormatsAreRefusedByName) {
     EXPECT_NE(import_error(unknown).find("unknown model format 'xyz' (abrad reads obj, gltf, glb"),
               std::string::npos)
         << import_error(unknown);
-    fs::remove_all(dir);
 }
 
 }  // namespace

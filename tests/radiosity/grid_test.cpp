@@ -11,6 +11,7 @@
 
 #include "abrad/radiosity/form_factor.h"
 #include "scenes.h"
+#include "temp_dir.h"
 
 namespace abrad::radiosity {
 namespace {
@@ -104,7 +105,8 @@ TEST(Grid, CsvHasOneLinePerPoint) {
     const visdb::Scene scene = one_light();
     const PointIrradiance field(scene, nullptr);
     const GridValues v = evaluate_grid(field, {.name = "g", .max = {1.0, 0.5}, .spacing = 0.5});
-    const fs::path csv = fs::temp_directory_path() / "abrad_grid_test.csv";
+    const abrad::testing::TempDir dir("grid");
+    const fs::path csv = dir / "grid.csv";
     write_grid_csv(csv, v);
     std::ifstream in(csv);
     std::string line;
@@ -113,16 +115,18 @@ TEST(Grid, CsvHasOneLinePerPoint) {
     int rows = 0;
     while (std::getline(in, line)) ++rows;
     EXPECT_EQ(rows, 2);
-    fs::remove(csv);
     EXPECT_THROW(write_grid_csv("/nonexistent-dir/grid.csv", v), std::runtime_error);
 }
 
-// Writes `text` to a temporary file and returns its path.
-fs::path points_file(const std::string& name, const std::string& text) {
-    const fs::path p = fs::temp_directory_path() / name;
-    std::ofstream(p) << text;
-    return p;
-}
+// Probe-point files in a scratch folder of the test's own.
+class ProbePoints : public ::testing::Test {
+  protected:
+    // Writes `text` to `name` in the test's folder and returns its path.
+    fs::path points_file(const std::string& name, const std::string& text) const {
+        return m_dir.write(name, text);
+    }
+    abrad::testing::TempDir m_dir{"grid"};
+};
 
 // The message of the InputFileError that reading `path` throws.
 std::string read_error(const fs::path& path) {
@@ -134,7 +138,7 @@ std::string read_error(const fs::path& path) {
     return "(no error)";
 }
 
-TEST(ProbePoints, ReadsHeaderBlankLinesAndNormalises) {
+TEST_F(ProbePoints, ReadsHeaderBlankLinesAndNormalises) {
     const fs::path p =
         points_file("abrad_points_ok.csv", "x,y,z,nx,ny,nz\r\n1, 2 ,3,0,0,2\n\n\t\n4,5,6,3,0,4\n");
     const std::vector<ProbePoint> pts = read_probe_points(p);
@@ -146,7 +150,7 @@ TEST(ProbePoints, ReadsHeaderBlankLinesAndNormalises) {
     fs::remove(p);
 }
 
-TEST(ProbePoints, MalformedLinesAreRefusedNamingFileAndLine) {
+TEST_F(ProbePoints, MalformedLinesAreRefusedNamingFileAndLine) {
     const struct {
         const char* text;
         const char* message;

@@ -14,6 +14,7 @@
 
 #include "abrad/visdb/store.h"
 #include "run_abrad.h"
+#include "temp_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -31,24 +32,14 @@ std::string bytes(const fs::path& p) {
 
 class ExitStatus : public ::testing::Test {
   protected:
-    void SetUp() override {
-        m_dir = fs::temp_directory_path() /
-                ("abrad_exit_" + std::to_string(getpid()) + "_" +
-                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(m_dir);
-        fs::create_directories(m_dir);
-        // abrad gives up on a locked database after 200 ms instead of 10 s
-        setenv("ABRAD_BUSY_TIMEOUT_MS", "200", 1);
-    }
-    void TearDown() override {
-        unsetenv("ABRAD_BUSY_TIMEOUT_MS");
-        if (!HasFailure()) fs::remove_all(m_dir);
-    }
+    // abrad gives up on a locked database after 200 ms instead of 10 s
+    void SetUp() override { setenv("ABRAD_BUSY_TIMEOUT_MS", "200", 1); }
+    void TearDown() override { unsetenv("ABRAD_BUSY_TIMEOUT_MS"); }
     fs::path path(const std::string& name) const { return m_dir / name; }
     std::string model() const {
         return std::string(ABRAD_SAMPLES) + "/paper_simple/paper_occluder.obj";
     }
-    fs::path m_dir;
+    abrad::testing::TempDir m_dir{"exit"};
 };
 
 TEST_F(ExitStatus, ADatabaseLockedByAnotherWriterIsAFailure) {
