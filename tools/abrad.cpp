@@ -20,7 +20,8 @@ namespace {
 // The subcommands, in the order of `abrad --help`.
 constexpr Command kCommands[] = {
     {"import", "Import model files into a visual database", add_import, run_import},
-    {"bake", "Bake direct light into the database's scene", add_bake, run_bake},
+    {"bake", "Bake the database's scene: direct light, and interreflection with --bounces",
+     add_bake, run_bake},
     {"export",
      "Export a bake as shaded PLY, OBJ, glTF or a POV-Ray scene, or the model as a POV-Ray "
      "reference scene (the output's extension picks the format unless --format is given)",

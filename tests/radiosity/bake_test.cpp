@@ -4,10 +4,10 @@
 
 #include <algorithm>
 #include <array>
-#include <string>
-#include <vector>
 #include <glm/geometric.hpp>
 #include <numbers>
+#include <string>
+#include <vector>
 
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/form_factor.h"
@@ -73,7 +73,8 @@ TEST(Bake, PatchShadingConservesPowerOnTheFloor) {
     // The centre vertex: the hemicube treats each light triangle as a point at its centroid
     // (±1/6, ∓1/6, 1.5) carrying half the light's area, so each floor triangle j gets
     // H_j = Σ_L E·A_L·F(c_L → j)/A_j; the vertex averages its 6 incident triangles (equal
-    // areas). Near a large light this overestimates the exact value (ALGORITHMS.md §7).
+    // areas). Near a large light this overestimates the exact value
+    // (docs/algorithms.md#light-triangle-shooting).
     const double q = 0.25;
     using P = glm::dvec3;
     const P z(0, 0, 0);
@@ -147,8 +148,8 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     EXPECT_NE(message_of(o, "--subpixels").find("--method abuffer"), std::string::npos);
     o = {};
     o.dm = false;
-    for (const char* dm_only : {"--lights", "--dm-angle", "--refine-rounds", "--refine-tolerance",
-                                "--refine-min-edge"})
+    for (const char* dm_only :
+         {"--lights", "--dm-angle", "--refine-rounds", "--refine-tolerance", "--refine-min-edge"})
         EXPECT_NE(message_of(o, dm_only).find(dm_only), std::string::npos) << dm_only;
     o = {};
     o.refine_rounds = 0;  // shadow edges only: no refinement tolerance to use

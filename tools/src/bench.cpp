@@ -1,5 +1,5 @@
 // The benchmark: speed against error over a grid of bake settings, and scaling on generated
-// building floors (DESIGN.md "Tests and measurements", ALGORITHMS.md section 8).
+// building floors (docs/design.md#tests-and-measurements, docs/algorithms.md#field-error).
 
 #include "abrad/tools/bench.h"
 

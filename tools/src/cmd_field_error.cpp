@@ -1,4 +1,4 @@
-// abrad field-error: the field error of a bake (ALGORITHMS.md section 8), its
+// abrad field-error: the field error of a bake (docs/algorithms.md#field-error), its
 // Gouraud-interpolated irradiance against the exact direct irradiance inside every receiver
 // triangle, as `key: value` lines.
 

@@ -1,5 +1,5 @@
 #pragma once
-// The benchmark (DESIGN.md "Tests and measurements"): bakes scenes over a grid of settings
+// The benchmark (docs/design.md#tests-and-measurements): bakes scenes over a grid of settings
 // and records, per run, the wall time of every stage, peak memory, triangles, the hemicube's
 // form-factor error against the closed form and the field error against exact irradiance;
 // then the scaling of the default settings on generated floors of growing size. Writes CSV,
