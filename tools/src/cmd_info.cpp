@@ -36,12 +36,11 @@ void print_info(const std::string& db) {
         if (m.is_emitter()) {
             double area = 0.0;
             for (const auto& t : s.mesh.triangles)
-                area +=
-                    0.5 * glm::length(glm::cross(s.mesh.positions[t.y] - s.mesh.positions[t.x],
-                                                 s.mesh.positions[t.z] - s.mesh.positions[t.x]));
+                area += visdb::triangle_area(s.mesh.positions[t.x], s.mesh.positions[t.y],
+                                             s.mesh.positions[t.z]);
             light_tris += s.mesh.triangles.size();
             light_area += area;
-            light_power += area * (m.emittance.x + m.emittance.y + m.emittance.z) / 3.0;
+            light_power += area * visdb::channel_mean(m.emittance);
             std::cout << ", emits E (" << m.emittance.x << " " << m.emittance.y << " "
                       << m.emittance.z << ") " << scene.emittance_unit << " over " << area << " m2";
         }
