@@ -102,7 +102,6 @@ double orient(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
     return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
 
-
 /// Triangulates one polygon (welded vertex ids, no two cyclically consecutive ids equal, at
 /// least 3) by ear clipping in its Newell plane. Appends exactly ids.size() - 2 triangles in
 /// the polygon's winding. Returns how far the farthest corner lies from the best-fit plane
