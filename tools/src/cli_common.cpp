@@ -215,7 +215,7 @@ radiosity::PointIrradiance point_irradiance_of(const std::string& db, const visd
 
 visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v) {
     try {
-        const visdb::Camera c = exporter::select_camera(scene, v.camera);
+        visdb::Camera c = exporter::select_camera(scene, v.camera);
         (void)exporter::camera_frame(c, v.width, v.height);  // a degenerate camera is bad input
         return c;
     } catch (const std::invalid_argument& e) {

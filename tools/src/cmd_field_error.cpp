@@ -39,10 +39,14 @@ void field_error(const std::string& db, const std::string& bake_name, int subdiv
     visdb::Store store = open_db(db);
     const visdb::Bake b = load_bake_for(store, db, bake_name, "measure");
     for (const auto& [key, value] : b.parameters)
-        if (key == "bounces" && value != "0")
-            bad_input(db + ": bake '" + b.name + "' has interreflection (bounces " + value +
-                      "); the field error measures direct light against its exact field: measure a "
-                      "--bounces 0 bake");
+        if (key == "bounces" && value != "0") {
+            std::string message = db;
+            message += ": bake '" + b.name + "' has interreflection (bounces " + value;
+            message +=
+                "); the field error measures direct light against its exact field: measure "
+                "a --bounces 0 bake";
+            bad_input(message);
+        }
     const visdb::Scene scene = store.load_scene();
     const radiosity::DirectField field = direct_field_of(db, scene);
     const auto t0 = std::chrono::steady_clock::now();
