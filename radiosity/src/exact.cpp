@@ -65,6 +65,16 @@ bool occluder_shadow(const LightPlane& lp, const Patch& occ, Poly2& shadow) {
         beyond_x = beyond_x || r > kEps;
     }
     if (!above || !below_light || !beyond_x) return false;
+    // An occluder whose plane contains x blocks nothing: the rays from x that meet it lie in
+    // its plane, a set of measure zero of the light. (Projected from x, such an occluder
+    // collapses to a segment with a zero-length edge, which the subtraction below would read
+    // as covering nothing on both sides of it: the light piece was counted twice, 1.3-3x the
+    // exact irradiance at the corners of every room.)
+    const glm::dvec3 on = glm::cross(occ.p[1] - occ.p[0], occ.p[2] - occ.p[0]);
+    const double on_len = glm::length(on);
+    if (!(on_len > 0.0)) return false;  // degenerate: no area to block with
+    const double size = std::sqrt(on_len);
+    if (std::abs(glm::dot(x - occ.p[0], on / on_len)) <= 1e-9 * size) return false;
     // Keep the part of the occluder strictly between the light plane and x:
     // r in (eps, 1 - eps)
     Polygon3 part;

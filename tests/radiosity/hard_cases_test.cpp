@@ -185,22 +185,18 @@ TEST(HardCases, LightFlushWithTheCeilingAndReceiversInItsPlane) {
             EXPECT_EQ(b.mesh.irradiance[b.mesh.triangles[t][k]].y, 0.0f);
         }
     }
-    // Nothing occludes the floor in a convex box: the closed form everywhere but at the four
-    // corners, where two walls meet the floor (see the disabled test below)
+    // Nothing occludes the floor in a convex box: the closed form everywhere, the four corners
+    // where two walls meet the floor included
     EXPECT_GT(check_floor(b, 0, glm::dvec3(0.0),
-                          [](const glm::dvec3& x) {
-                              return std::abs(x.x) == 1.0 && std::abs(x.y) == 1.0
-                                         ? std::nan("")
-                                         : kGreen * ff_light(x);
-                          }),
+                          [](const glm::dvec3& x) { return kGreen * ff_light(x); }),
               370);
 }
 
-// Known bug, found by this suite and present on main before the culling work: exact shading at
-// a floor vertex where two walls meet the floor of a closed box gives 1.35-2x the closed form
-// (with and without DM; asymmetric between corners of a symmetric box). Disabled until the
-// exact shading of points lying in occluders' planes is fixed.
-TEST(HardCases, DISABLED_FloorCornersOfAClosedBoxGetTheClosedForm) {
+// Found by this suite: exact shading at a floor vertex where two walls meet the floor of a
+// closed box gave 1.35-2x the closed form (with and without DM; asymmetric between corners of a
+// symmetric box). The walls' triangles contain the vertex in their planes; their projection
+// from it degenerated (exact.cpp, occluder_shadow).
+TEST(HardCases, FloorCornersOfAClosedBoxGetTheClosedForm) {
     visdb::Scene scene = base_scene();
     const glm::dvec3 c[4] = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
     for (int k = 0; k < 4; ++k)
@@ -215,7 +211,7 @@ TEST(HardCases, DISABLED_FloorCornersOfAClosedBoxGetTheClosedForm) {
                                          ? kGreen * ff_light(x)
                                          : std::nan("");
                           }),
-              12);
+              6);  // the 4 corners, seen from their triangles: 2 + 1 + 2 + 1 (cell diagonals)
 }
 
 TEST(HardCases, OccluderTouchingTheReceiver) {
