@@ -9,7 +9,9 @@
 #include <glm/common.hpp>
 #include <limits>
 #include <map>
+#include <utility>
 
+#include "abrad/export/text.h"
 #include "abrad/export/writers.h"
 #include "output.h"
 
@@ -57,8 +59,8 @@ int add_vec3_accessor(tinygltf::Model& model, const std::vector<float>& xyz, boo
 
 }  // namespace
 
-void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
-                const visdb::BakeMesh& mesh, const ToneMap& tone) {
+std::size_t write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
+                       const visdb::BakeMesh& mesh, const ToneMap& tone) {
     detail::validate_bake_mesh(path, mesh);
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
@@ -106,6 +108,14 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
         for (int c = 0; c < 3; ++c) idx.push_back(mesh.triangles[t][c]);
     }
 
+    // Names as JSON needs them: valid UTF-8, counting the ones that were not
+    std::size_t transcoded = 0;
+    auto utf8 = [&](const std::string& name) {
+        Utf8Text t = to_utf8(name);
+        transcoded += t.transcoded;
+        return std::move(t.text);
+    };
+
     tinygltf::Node root;
     root.name = "abrad bake";
     root.translation = {origin.x, origin.z, -origin.y};
@@ -118,7 +128,7 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
         auto it = material_index.find(m);
         if (it == material_index.end()) {
             tinygltf::Material mat;
-            mat.name = m < scene.materials.size() ? scene.materials[m].name : "abrad";
+            mat.name = m < scene.materials.size() ? utf8(scene.materials[m].name) : "abrad";
             mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
             mat.pbrMetallicRoughness.metallicFactor = 0.0;
             mat.pbrMetallicRoughness.roughnessFactor = 1.0;
@@ -145,7 +155,7 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
                            {"_IRRADIANCE", a_irr},
                            {"_RADIOSITY", a_rad}};
         tinygltf::Mesh gm;
-        gm.name = surface < scene.surfaces.size() ? scene.surfaces[surface].name
+        gm.name = surface < scene.surfaces.size() ? utf8(scene.surfaces[surface].name)
                                                   : "surface " + std::to_string(surface);
         gm.primitives.push_back(prim);
         model.meshes.push_back(gm);
@@ -176,6 +186,7 @@ void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
         std::filesystem::remove(tmp, ec);
         detail::fail(path, "cannot write: " + ec.message());
     }
+    return transcoded;
 }
 
 }  // namespace abrad::exporter

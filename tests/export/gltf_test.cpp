@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "abrad/export/text.h"
 #include "abrad/export/writers.h"
 #include "temp_dir.h"
 
@@ -133,4 +134,39 @@ TEST(GltfExport, RefusesOtherExtensionsAndBadMeshes) {
     bad.radiosity.pop_back();
     EXPECT_THROW(write_gltf(dir / "bad.gltf", two_surfaces(), bad, {}), ExportError);
     EXPECT_FALSE(fs::exists(dir / "bad.gltf"));
+}
+
+// Names are valid UTF-8 whatever the CAD file wrote: UTF-8 kept, anything else read as
+// Windows-1252 (Latin-1 plus the typographic 0x80-0x9F), undefined bytes U+FFFD.
+TEST(Utf8Text, ValidUtf8KeptOtherBytesReadAsWindows1252) {
+    EXPECT_EQ(to_utf8("Terraind\xc3\xa6k").text, "Terraind\xc3\xa6k");  // UTF-8 æ
+    EXPECT_FALSE(to_utf8("Terraind\xc3\xa6k").transcoded);
+    EXPECT_FALSE(to_utf8("plain ascii").transcoded);
+    EXPECT_EQ(to_utf8("\xf0\x9f\x92\xa1").text, "\xf0\x9f\x92\xa1");  // 4-byte form kept
+    const auto latin1 = to_utf8("Terraind\xe6k");                     // Latin-1 æ
+    EXPECT_TRUE(latin1.transcoded);
+    EXPECT_EQ(latin1.text, "Terraind\xc3\xa6k");
+    EXPECT_EQ(to_utf8("\x80 5").text, "\xe2\x82\xac 5");  // CP1252 euro sign
+    EXPECT_EQ(to_utf8("a\x81z").text, "a\xef\xbf\xbdz");  // undefined in CP1252: U+FFFD
+    // Not UTF-8: overlong, a surrogate, truncated, a stray continuation byte
+    for (const char* bad : {"\xc0\xaf", "\xed\xa0\x80", "ab\xe2\x82", "\xa0x"})
+        EXPECT_TRUE(to_utf8(bad).transcoded) << bad;
+}
+
+TEST(GltfExport, NamesThatAreNotUtf8AreTranscoded) {
+    const abrad::testing::TempDir dir("gltf");
+    visdb::Scene scene = two_surfaces();
+    scene.materials[0].name = "Terraind\xe6k";    // Latin-1, as an OBJ from a Danish CAD tool
+    scene.surfaces[1].name = "V\xe6g \x96 nord";  // Latin-1 æ, CP1252 en dash
+    const fs::path path = dir / "names.gltf";
+    EXPECT_EQ(write_gltf(path, scene, survey_mesh(), {.exposure = 0.05}), 2u);
+    tinygltf::TinyGLTF loader;
+    tinygltf::Model model;
+    std::string err, warn;
+    ASSERT_TRUE(loader.LoadASCIIFromFile(&model, &err, &warn, path.string())) << err;
+    ASSERT_EQ(model.materials.size(), 2u);
+    EXPECT_EQ(model.materials[0].name, "Terraind\xc3\xa6k");
+    ASSERT_EQ(model.meshes.size(), 2u);
+    EXPECT_EQ(model.meshes[1].name, "V\xc3\xa6g \xe2\x80\x93 nord");
+    EXPECT_EQ(model.meshes[0].name, "floor");  // UTF-8 (ASCII) names untouched
 }

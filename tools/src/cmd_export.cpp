@@ -63,8 +63,14 @@ void write_obj(const ExportJob& job) {
 
 void write_gltf(const ExportJob& job) {
     const ToneMapped t = bake_of(job);
-    exporter::write_gltf(job.args.output, job.scene, t.bake.mesh, t.tone);
+    const std::size_t transcoded =
+        exporter::write_gltf(job.args.output, job.scene, t.bake.mesh, t.tone);
     report(job, t);
+    if (transcoded > 0)
+        std::cerr << "abrad export: note: " << transcoded
+                  << " material or surface names were not UTF-8; read as Windows-1252 (Latin-1) "
+                     "in "
+                  << job.args.output << "\n";
 }
 
 void write_pov(const ExportJob& job) {

@@ -114,14 +114,15 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
 
 /// Writes the bake as glTF 2.0 (`.gltf` with the buffer embedded as a data URI, or binary
 /// `.glb`, by the extension): one mesh primitive per surface with POSITION (float, metres,
-/// relative to the root node's translation, the mesh's rounded centre), NORMAL, COLOR_0 (the
+/// relative to the root node's translation, visdb::local_origin of the mesh), NORMAL, COLOR_0 (the
 /// tone-mapped radiosity 1 - exp(-exposure B), linear float RGB as glTF requires) and the
 /// application attributes _IRRADIANCE and _RADIOSITY (float RGB, W/m² or lux); materials
 /// are `KHR_materials_unlit` with base colour white and single-sided (a bake shades fronts
 /// only), so viewers show the bake as is. Y up as
-/// glTF requires: abrad's (x, y, z) is written as (x, z, -y). Throws ExportError naming
-/// `path` on an inconsistent mesh or a write failure.
-void write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
-                const visdb::BakeMesh& mesh, const ToneMap& tone);
+/// glTF requires: abrad's (x, y, z) is written as (x, z, -y). Material and surface names that
+/// are not valid UTF-8 (JSON's encoding) are read as Windows-1252 (to_utf8 in text.h); returns
+/// how many were. Throws ExportError naming `path` on an inconsistent mesh or a write failure.
+std::size_t write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
+                       const visdb::BakeMesh& mesh, const ToneMap& tone);
 
 }  // namespace abrad::exporter
