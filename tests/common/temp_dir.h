@@ -20,6 +20,12 @@
 
 namespace abrad::testing {
 
+/// The bytes of the file at `p` (empty when it cannot be read).
+inline std::string file_bytes(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 class TempDir {
   public:
     /// `prefix` names the test binary or module in the directory name (letters, digits, _).

@@ -34,12 +34,7 @@ namespace {
 using abrad::testing::Result;
 Result run(const std::string& args) { return abrad::testing::run_abrad(args); }
 
-std::string bytes(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using abrad::testing::file_bytes;
 
 class Cli : public ::testing::Test {
   protected:
@@ -66,7 +61,7 @@ class Cli : public ::testing::Test {
 
 TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
     const std::string db = baked_db();
-    const std::string before = bytes(db);
+    const std::string before = file_bytes(db);
     struct Case {
         std::string name, text;
         int line;
@@ -84,19 +79,19 @@ TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
         EXPECT_NE(r.output.find("abrad import: " + file + ":" + std::to_string(c.line) + ":"),
                   std::string::npos)
             << r.output;
-        EXPECT_EQ(bytes(db), before) << c.name;
+        EXPECT_EQ(file_bytes(db), before) << c.name;
     }
     // No faces, a missing file, an unknown format
     const std::string empty = write("empty.obj", "v 0 0 0\n");
     EXPECT_EQ(run("import " + empty + " --db " + db).status, 2);
     EXPECT_EQ(run("import " + path("missing.obj").string() + " --db " + db).status, 2);
     EXPECT_EQ(run("import " + write("model.xyz", "1 2 3\n") + " --db " + db).status, 2);
-    EXPECT_EQ(bytes(db), before);
+    EXPECT_EQ(file_bytes(db), before);
     // The same model twice would overlap itself: refused
     const Result again = run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db);
     EXPECT_EQ(again.status, 2) << again.output;
     EXPECT_NE(again.output.find("already imported"), std::string::npos) << again.output;
-    EXPECT_EQ(bytes(db), before);
+    EXPECT_EQ(file_bytes(db), before);
     // A bad model never creates a new database
     EXPECT_EQ(run("import " + empty + " --db " + path("new.visdb").string()).status, 2);
     EXPECT_FALSE(fs::exists(path("new.visdb")));
@@ -104,7 +99,7 @@ TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
 
 TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
     const std::string db = baked_db();
-    const std::string before = bytes(db);
+    const std::string before = file_bytes(db);
     for (const std::string opts :
          {"--resolution 51", "--subpixels 5", "--bounces -2", "--bounces many", "--converge 0",
           "--element-size 0", "--overrelax 2", "--method nope", "--shading nope",
@@ -114,16 +109,16 @@ TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
         EXPECT_EQ(r.status, 2) << opts << "\n" << r.output;
         EXPECT_NE(r.output.find("abrad"), std::string::npos);
     }
-    EXPECT_EQ(bytes(db), before);
+    EXPECT_EQ(file_bytes(db), before);
     // A scene without lights cannot be baked
     const std::string dark = path("dark.visdb").string();
     const std::string obj = write("dark.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
     ASSERT_EQ(run("import " + obj + " --db " + dark).status, 0);
-    const std::string dark_before = bytes(dark);
+    const std::string dark_before = file_bytes(dark);
     const Result r = run("bake --db " + dark);
     EXPECT_EQ(r.status, 2) << r.output;
     EXPECT_NE(r.output.find("no light sources"), std::string::npos) << r.output;
-    EXPECT_EQ(bytes(dark), dark_before);
+    EXPECT_EQ(file_bytes(dark), dark_before);
     // Missing database
     EXPECT_EQ(run("bake --db " + path("none.visdb").string()).status, 2);
     EXPECT_FALSE(fs::exists(path("none.visdb")));
@@ -177,7 +172,7 @@ TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
     const Result r = run("run --bounces 0 " + sample("paper_simple/paper_occluder.obj") +
                          " --out " + m_dir.path().string());
     ASSERT_EQ(r.status, 0) << r.output;
-    const std::string ply = bytes(path("paper_occluder.ply"));
+    const std::string ply = file_bytes(path("paper_occluder.ply"));
     const std::string header_end = "end_header\n";
     const std::size_t body = ply.find(header_end);
     ASSERT_NE(body, std::string::npos);
@@ -239,8 +234,8 @@ TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
     }
     EXPECT_EQ(found, 1);
     // OBJ and MTL beside it
-    EXPECT_NE(bytes(path("paper_occluder.obj")).find("\nv "), std::string::npos);
-    EXPECT_NE(bytes(path("paper_occluder.mtl")).find("Ke 100 100 100"), std::string::npos);
+    EXPECT_NE(file_bytes(path("paper_occluder.obj")).find("\nv "), std::string::npos);
+    EXPECT_NE(file_bytes(path("paper_occluder.mtl")).find("Ke 100 100 100"), std::string::npos);
 }
 
 // Parses `key: value` lines.
@@ -325,7 +320,7 @@ TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
     ASSERT_EQ(run("export --db " + db + " --format ply --ascii --output " + path("a.ply").string())
                   .status,
               0);
-    const std::string ascii = bytes(path("a.ply"));
+    const std::string ascii = file_bytes(path("a.ply"));
     EXPECT_NE(ascii.find("format ascii 1.0"), std::string::npos);
     const Result bad =
         run("export --db " + db + " --format ply --bake nope --output " + path("b.ply").string());
@@ -395,7 +390,7 @@ TEST_F(Cli, ProbeWritesExactIrradianceAtPoints) {
 TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     const glm::dvec3 shift{2'500'000.0, 1'200'000.0, 400.0};
     const fs::path model = sample("paper_simple/paper_occluder.obj");
-    std::istringstream in(bytes(model));
+    std::istringstream in(file_bytes(model));
     std::string shifted;
     for (std::string line; std::getline(in, line);) {
         if (line.rfind("v ", 0) == 0) {
@@ -680,7 +675,8 @@ TEST_F(Cli, InterreflectionGridAndProbeInTheCornellBox) {
     EXPECT_NEAR(lo, mn, 1e-3 * lo);
     EXPECT_NEAR(hi, mx, 1e-3 * hi);
     EXPECT_NEAR(u0, mn / (sum / 16), 2e-3);
-    EXPECT_EQ(bytes(path("ir") / "CornellBox-Original.grid-work_plane.png").substr(1, 3), "PNG");
+    EXPECT_EQ(file_bytes(path("ir") / "CornellBox-Original.grid-work_plane.png").substr(1, 3),
+              "PNG");
 
     // Probe the grid's points: with the converged bake, the CSV's values; with a direct-only
     // bake, less at every point: the lit ceiling the work plane faces adds 4-5 %
@@ -724,18 +720,18 @@ TEST_F(Cli, ExportsScenesRendersAndComparesImages) {
                    " --width 160 --height 120");
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("camera 'default'"), std::string::npos) << r.output;
-    const std::string pov_text = bytes(pov);
+    const std::string pov_text = file_bytes(pov);
     EXPECT_NE(pov_text.find("mesh2 {"), std::string::npos);
     EXPECT_NE(pov_text.find("texture_list"), std::string::npos);
     EXPECT_EQ(pov_text.find("light_source"), std::string::npos);
     r = run("export --db " + db + " --format pov-reference --light-samples 16 --output " +
             ref.string());
     ASSERT_EQ(r.status, 0) << r.output;
-    EXPECT_NE(bytes(ref).find("spotlight"), std::string::npos);
+    EXPECT_NE(file_bytes(ref).find("spotlight"), std::string::npos);
     r = run("export --db " + db + " --format gltf --output " + glb.string());
     ASSERT_EQ(r.status, 0) << r.output;
-    EXPECT_EQ(bytes(glb).substr(0, 4), "glTF");
-    EXPECT_NE(bytes(glb).find("KHR_materials_unlit"), std::string::npos);
+    EXPECT_EQ(file_bytes(glb).substr(0, 4), "glTF");
+    EXPECT_NE(file_bytes(glb).find("KHR_materials_unlit"), std::string::npos);
 
     // Own renders: PNG, EXR, false colour with a legend (wider than the image)
     const std::string png = path("own.png").string(), dark = path("dark.png").string();
@@ -801,8 +797,8 @@ TEST_F(Cli, SceneFileCamerasByName) {
     Result r = run("export --db " + db + " --format pov --camera top --output " +
                    path("top.pov").string());
     ASSERT_EQ(r.status, 0) << r.output;
-    EXPECT_NE(bytes(path("top.pov")).find("location <0.25,0.5,2.5>"), std::string::npos);
-    EXPECT_NE(bytes(path("top.pov")).find("direction <0,0,-1>"), std::string::npos);
+    EXPECT_NE(file_bytes(path("top.pov")).find("location <0.25,0.5,2.5>"), std::string::npos);
+    EXPECT_NE(file_bytes(path("top.pov")).find("direction <0,0,-1>"), std::string::npos);
     const std::string top = path("top.exr").string(), first = path("first.exr").string(),
                       corner = path("corner.exr").string();
     r = run("render --db " + db + " --camera top --output " + top + " --width 64 --height 48");

@@ -9,7 +9,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include "abrad/visdb/store.h"
@@ -23,12 +22,7 @@ namespace {
 using abrad::testing::Result;
 Result run(const std::string& args) { return abrad::testing::run_abrad(args); }
 
-std::string bytes(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using abrad::testing::file_bytes;
 
 class ExitStatus : public ::testing::Test {
   protected:
@@ -45,7 +39,7 @@ class ExitStatus : public ::testing::Test {
 TEST_F(ExitStatus, ADatabaseLockedByAnotherWriterIsAFailure) {
     const fs::path db = path("room.visdb");
     ASSERT_EQ(run("import " + model() + " --db " + db.string()).status, 0);
-    const std::string before = bytes(db);
+    const std::string before = file_bytes(db);
 
     sqlite3* other = nullptr;
     ASSERT_EQ(sqlite3_open(db.string().c_str(), &other), SQLITE_OK);
@@ -61,7 +55,7 @@ TEST_F(ExitStatus, ADatabaseLockedByAnotherWriterIsAFailure) {
     ASSERT_EQ(sqlite3_exec(other, "ROLLBACK", nullptr, nullptr, nullptr), SQLITE_OK);
     sqlite3_close(other);
 
-    EXPECT_EQ(bytes(db), before);
+    EXPECT_EQ(file_bytes(db), before);
     const abrad::visdb::Store store =
         abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
     EXPECT_TRUE(store.list_bakes().empty());
@@ -79,7 +73,7 @@ TEST_F(ExitStatus, ADatabaseInAMissingDirectoryIsAFailure) {
 TEST_F(ExitStatus, AFileThatIsNotADatabaseIsBadInput) {
     const fs::path db = path("notes.visdb");
     std::ofstream(db) << "these are not the tables you are looking for\n";
-    const std::string before = bytes(db);
+    const std::string before = file_bytes(db);
     for (const std::string& args : {"info --db " + db.string(), "bake --db " + db.string(),
                                     "import " + model() + " --db " + db.string()}) {
         const Result r = run(args);
@@ -87,7 +81,7 @@ TEST_F(ExitStatus, AFileThatIsNotADatabaseIsBadInput) {
         EXPECT_NE(r.output.find(db.string() + ": not an abrad visual database"), std::string::npos)
             << r.output;
     }
-    EXPECT_EQ(bytes(db), before);
+    EXPECT_EQ(file_bytes(db), before);
 }
 
 TEST(StoreErrorKind, FromTheSqliteResult) {
@@ -115,7 +109,7 @@ TEST(StoreErrorKind, FromTheSqliteResult) {
 TEST_F(ExitStatus, BakeSettingsTheBakeDoesNotUseAreBadInput) {
     const fs::path db = path("room.visdb");
     ASSERT_EQ(run("import " + model() + " --db " + db.string()).status, 0);
-    const std::string before = bytes(db);
+    const std::string before = file_bytes(db);
     const struct {
         const char* args;
         const char* named;
@@ -130,7 +124,7 @@ TEST_F(ExitStatus, BakeSettingsTheBakeDoesNotUseAreBadInput) {
         EXPECT_EQ(r.status, 2) << c.args;
         EXPECT_NE(r.output.find(c.named), std::string::npos) << c.args << ": " << r.output;
         EXPECT_NE(r.output.find("not used"), std::string::npos) << r.output;
-        EXPECT_EQ(bytes(db), before) << c.args;
+        EXPECT_EQ(file_bytes(db), before) << c.args;
     }
     // Used: converge with --bounces converge (a coarse, quick bake)
     EXPECT_EQ(run("bake --db " + db.string() +
