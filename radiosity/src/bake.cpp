@@ -18,8 +18,6 @@ namespace abrad::radiosity {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
 // The settings the bake records with its result (the settings it used).
 std::vector<std::pair<std::string, std::string>> parameters_of(const BakeOptions& o) {
     std::vector<std::pair<std::string, std::string>> p = {
@@ -69,9 +67,10 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     BakeGeometry geometry = build_bake_mesh(scene, &stats);
     Regions regions = make_regions(geometry);
     const Bvh bvh(geometry.patches);
+    const Hemicube hemicube(options.resolution);  // the lights' shots, and patch shading
 
     // Shoot the lights: patch irradiance, exact vertex irradiance or shadow segments
-    LightShots shots = shoot_lights(geometry, bvh, options, &stats, progress);
+    LightShots shots = shoot_lights(geometry, bvh, hemicube, options, &stats, progress);
 
     // Discontinuity mesh: the receivers re-meshed along the shadow segments and refined
     std::optional<DiscontinuityMesh> dm;
@@ -91,7 +90,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     std::vector<std::uint32_t> vertex_region;
     if (dm) {
         target = describe_mesh(scene, std::move(dm->mesh));
-        direct = exact ? std::move(dm->irradiance) : shade_patches(geometry, target, options);
+        direct =
+            exact ? std::move(dm->irradiance) : shade_patches(geometry, target, hemicube, options);
         vertex_region = std::move(dm->vertex_region);
     } else {
         direct = exact ? std::move(shots.vertex_irradiance)
@@ -108,7 +108,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     result.name = options.name;
     result.unit = scene.emittance_unit == "lm/m2" ? "lux" : "W/m2";
     result.parameters = parameters_of(options);
-    stats.seconds_total = std::chrono::duration<double>(Clock::now() - t_start).count();
+    stats.seconds_total = seconds_since(t_start);
     return result;
 }
 

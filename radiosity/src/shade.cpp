@@ -40,8 +40,7 @@ std::vector<visdb::Rgb> average_to_vertices(const BakeGeometry& g,
 }
 
 std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeometry& target,
-                                      const BakeOptions& options) {
-    const Hemicube hemicube(options.resolution);
+                                      const Hemicube& hemicube, const BakeOptions& options) {
     std::vector<visdb::Rgb> tri(target.mesh.triangles.size(), visdb::Rgb(0.0));
     const ShootOptions so{
         .method = options.method, .subpixels = options.subpixels, .occlusion = false};

@@ -23,12 +23,6 @@ namespace abrad::radiosity {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) {
-    return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // False when `c` cannot hide any part of `light` from any part of `receiver`: the six
 // corners lie on one closed side of c's plane, so no segment between them crosses it (a
 // floor cannot shadow a wall standing on it; a wall cannot shadow the floor).
@@ -58,7 +52,6 @@ struct OneLight {
     visdb::ShootStats shoot;
     visdb::ExactShadeStats exact;
     visdb::ShadowEdgeStats shadow;
-    ShadowStats shadow_edges;
 };
 
 // Exact vertex irradiance from light l past the occluders the fragment lists found.
@@ -171,7 +164,9 @@ void project_shadow_edges(const BakeGeometry& g, const Bvh& bvh, std::uint32_t l
             }
             std::lock_guard lock(accumulate);
             out.segments.insert(out.segments.end(), here.begin(), here.end());
-            out.shadow_edges += s;
+            counts.edges_projected += s.edges_projected;
+            counts.shared_edges_skipped += s.shared_edges_skipped;
+            counts.segments_split += s.segments_split;
             out.shadow += counts;
         });
 }
@@ -214,11 +209,11 @@ OneLight shoot_one(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicu
 
 }  // namespace
 
-LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const BakeOptions& options,
-                        visdb::BakeStats* stats, const ProgressFn& progress) {
+LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicube,
+                        const BakeOptions& options, visdb::BakeStats* stats,
+                        const ProgressFn& progress) {
     const std::size_t nt = g.mesh.triangles.size(), nv = g.mesh.positions.size();
     const bool exact_vertices = options.shading == Shading::Exact && !options.dm;
-    const Hemicube hemicube(options.resolution);
     LightShots shots;
     shots.triangle_irradiance.assign(nt, visdb::Rgb(0.0));
     shots.vertex_irradiance.assign(nv, visdb::Rgb(0.0));
@@ -243,9 +238,6 @@ LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const BakeOptions
         shoot_stats += one.shoot;
         exact_stats += one.exact;
         shadow_stats += one.shadow;
-        shadow_stats.edges_projected += one.shadow_edges.edges_projected;
-        shadow_stats.shared_edges_skipped += one.shadow_edges.shared_edges_skipped;
-        shadow_stats.segments_split += one.shadow_edges.segments_split;
         ++done;
         if (progress) progress("shoot", done, g.lights.size());
     });

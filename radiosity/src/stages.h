@@ -11,6 +11,7 @@
 //   shade_patches       shade.cpp           the paper's patch shading on a new mesh
 //   shade_vertices      shade.cpp           B = E + ρH at every output vertex
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -24,6 +25,14 @@
 #include "abrad/visdb/model.h"
 
 namespace abrad::radiosity {
+
+/// The stages' clock (wall time).
+using Clock = std::chrono::steady_clock;
+
+/// Wall seconds since `t0`.
+inline double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 /// A mesh to shoot onto and shade, with what shading needs beside it: per triangle its
 /// patch, area and material; per vertex its triangles (compressed rows).
@@ -73,8 +82,9 @@ Regions make_regions(const BakeGeometry& g);
 
 /// Shoots from every light triangle (in parallel). Fills stats->shoot, the light and power
 /// figures, and stats->exact_shade (exact shading without DM) or the shadow part of stats->dm.
-LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const BakeOptions& options,
-                        visdb::BakeStats* stats, const ProgressFn& progress);
+LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicube,
+                        const BakeOptions& options, visdb::BakeStats* stats,
+                        const ProgressFn& progress);
 
 /// Meshes every planar region along its shadow segments and refines it; consumes `segments`.
 /// Fills stats->dm (all but the shadow edge counters, which shoot_lights filled).
@@ -92,7 +102,7 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
 /// The paper's patch shading on `target` (a new mesh): every light of `lights` shoots again
 /// onto target's triangles; each vertex gets the area-weighted irradiance of its triangles.
 std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeometry& target,
-                                      const BakeOptions& options);
+                                      const Hemicube& hemicube, const BakeOptions& options);
 
 /// Each vertex of `g` gets the area-weighted patch irradiance of its triangles.
 std::vector<visdb::Rgb> average_to_vertices(const BakeGeometry& g,

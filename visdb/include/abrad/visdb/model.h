@@ -41,18 +41,30 @@ inline bool any_positive(const Rgb& c) { return c.x > 0.0 || c.y > 0.0 || c.z > 
 /// bounding box rounded to whole metres when that lies 1 km or more from the origin, else
 /// zero. Subtracting it from survey coordinates (1e6 m) is exact (Sterbenz) and leaves
 /// coordinates of the building's own size; near the origin the scene's frame is already local
-/// (and bakes stay bit-identical to those of a scene given there). The one policy.
+/// (and bakes stay bit-identical to those of a scene given there). The one policy, here for a
+/// bounding box [lo, hi] (lo.x > hi.x: empty, zero).
+inline glm::dvec3 local_origin(const glm::dvec3& lo, const glm::dvec3& hi) {
+    if (!(lo.x <= hi.x)) return glm::dvec3{0.0};  // no points
+    const glm::dvec3 origin = glm::round(0.5 * (lo + hi));
+    return glm::length(origin) < 1e3 ? glm::dvec3{0.0} : origin;
+}
+
+/// Grows the box [lo, hi] to hold `points`.
 template <class Points>
-glm::dvec3 local_origin(const Points& points) {
-    glm::dvec3 lo{std::numeric_limits<double>::max()};
-    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
+void grow_box(const Points& points, glm::dvec3& lo, glm::dvec3& hi) {
     for (const glm::dvec3& p : points) {
         lo = glm::min(lo, p);
         hi = glm::max(hi, p);
     }
-    if (!(lo.x <= hi.x)) return glm::dvec3{0.0};
-    const glm::dvec3 origin = glm::round(0.5 * (lo + hi));
-    return glm::length(origin) < 1e3 ? glm::dvec3{0.0} : origin;
+}
+
+/// local_origin of the bounding box of `points`.
+template <class Points>
+glm::dvec3 local_origin(const Points& points) {
+    glm::dvec3 lo{std::numeric_limits<double>::max()};
+    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
+    grow_box(points, lo, hi);
+    return local_origin(lo, hi);
 }
 
 /// Two unit vectors u, v with (u, v, n) a right-handed orthonormal frame around the unit
@@ -155,14 +167,10 @@ struct Scene {
 
 /// local_origin of every position of every surface of a scene.
 inline glm::dvec3 local_origin(const Scene& scene) {
-    std::vector<glm::dvec3> corners;
-    for (const auto& s : scene.surfaces)
-        for (const glm::dvec3& p : s.mesh.positions) {
-            if (corners.empty()) corners = {p, p};
-            corners[0] = glm::min(corners[0], p);
-            corners[1] = glm::max(corners[1], p);
-        }
-    return local_origin(corners);
+    glm::dvec3 lo{std::numeric_limits<double>::max()};
+    glm::dvec3 hi{std::numeric_limits<double>::lowest()};
+    for (const auto& s : scene.surfaces) grow_box(s.mesh.positions, lo, hi);
+    return local_origin(lo, hi);
 }
 
 /// The mesh a bake produced with its per-vertex shades. Vertices are not shared across
