@@ -42,7 +42,7 @@ struct Row {
     bool known = false;
 };
 
-// Triangles the hemicubes rasterize: the scene's, those larger than a grid cell cut into n²
+// Triangles the hemicubes rasterize: the scene's, those longer than a cell's diagonal cut into n²
 // similar pieces, each piece knowing its element.
 struct Pieces {
     std::vector<Patch> patch;
@@ -51,16 +51,14 @@ struct Pieces {
 };
 
 // Form factors from one shooting point onto the elements, fronts and backs apart, given the
-// hemicube's form factor of every piece.
-void fold_row(const std::vector<double>& piece_ff, const Pieces& pieces,
+// hemicube's form factors of the pieces it saw (ascending piece index).
+void fold_row(std::span<const PatchFormFactor> piece_ff, const Pieces& pieces,
               const std::vector<IndirectSolution::Element>& elements, const glm::dvec3& from,
               std::vector<double>& front, std::vector<double>& back,
               std::vector<std::uint32_t>& touched, Row& row,
               const std::vector<glm::dvec3>& region_normal) {
     touched.clear();
-    for (std::size_t j = 0; j < piece_ff.size(); ++j) {
-        const double f = piece_ff[j];
-        if (!(f > 0.0)) continue;
+    for (const auto [j, f] : piece_ff) {
         const std::uint32_t e = pieces.element[j];
         if (front[e] == 0.0 && back[e] == 0.0) touched.push_back(e);
         // The shooter lights the element's front when it lies in front of the element's plane
@@ -155,13 +153,19 @@ class Solver {
           m_options(options),
           m_progress(progress),
           m_hemicube(options.resolution),
-          m_shoot{.method = options.method, .subpixels = options.subpixels, .occlusion = false},
+          m_shoot{.method = options.method,
+                  .subpixels = options.subpixels,
+                  .occlusion = false,
+                  .sparse = true},
           m_region_normal(in.region_normal.begin(), in.region_normal.end()) {}
 
     IndirectSolution run() {
         m_sol.element_size = m_options.element_size;
         make_grids();
         make_elements();
+        // Each hemicube walks the pieces front to back and skips what closed pixels hide
+        m_bvh = std::make_unique<Bvh>(m_pieces.patch);
+        m_shoot.bvh = m_bvh.get();
         m_scratch = std::make_unique<tbb::enumerable_thread_specific<Scratch>>([ne = m_ne] {
             return Scratch{std::vector<double>(ne, 0.0), std::vector<double>(ne, 0.0), {}};
         });
@@ -241,16 +245,19 @@ class Solver {
         m_pieces.centroid.push_back(mid);
     }
 
-    // Pieces and elements: triangles larger than a cell cut into n² similar pieces, each
-    // piece in the element of the cell holding its centroid
+    // Pieces and elements: triangles longer than a cell's diagonal cut into n² similar
+    // pieces, each piece in the element of the cell holding its centroid
     void make_elements() {
         for (std::size_t t = 0; t < m_in.patches.size(); ++t) {
             const Patch& p = m_in.patches[t];
             double longest = 0.0;
             for (int k = 0; k < 3; ++k)
                 longest = std::max(longest, glm::length(p.p[(k + 1) % 3] - p.p[k]));
+            // A triangle that fits a cell's diagonal stays whole (the elements cluster whole
+            // triangles; every piece is one more triangle in every hemicube)
+            const double diagonal = std::sqrt(2.0) * m_options.element_size;
             const int n = static_cast<int>(
-                std::clamp(std::ceil(longest / m_options.element_size), 1.0, 64.0));
+                std::clamp(std::ceil(longest / diagonal - 1e-9), 1.0, 64.0));
             const glm::dvec3 e1 = (p.p[1] - p.p[0]) / double(n), e2 = (p.p[2] - p.p[0]) / double(n);
             auto at = [&](int i, int j) { return p.p[0] + double(i) * e1 + double(j) * e2; };
             // Corner coordinates are whole multiples: a piece's corners are exact where n = 1
@@ -292,7 +299,7 @@ class Solver {
             const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
             Scratch& s = m_scratch->local();
             Row row;
-            fold_row(shot.form_factor, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
+            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
                      s.touched, row, m_region_normal);
             const visdb::Rgb power = m_in.emittance[lights[li]] * area(light);
             std::lock_guard lock(merge);
@@ -334,7 +341,7 @@ class Solver {
             const ShooterFrame frame = ShooterFrame::at(el.centroid, m_region_normal[el.region]);
             const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
             Scratch& s = m_scratch->local();
-            fold_row(shot.form_factor, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
+            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
                      s.touched, m_rows[todo[k]], m_region_normal);
         });
         m_sol.rows_computed += todo.size();
@@ -468,8 +475,9 @@ class Solver {
     const ProgressFn& m_progress;
     const Clock::time_point m_start = Clock::now();
     const Hemicube m_hemicube;
-    const ShootOptions m_shoot;
+    ShootOptions m_shoot;
     const std::vector<glm::dvec3> m_region_normal;
+    std::unique_ptr<Bvh> m_bvh;
     std::string m_label;
     IndirectSolution m_sol;
     Pieces m_pieces;
@@ -518,19 +526,21 @@ IndirectField::IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& m
         m_normal.push_back(glm::normalize(c));
         m_reflected.push_back(glm::max(b / 3.0, visdb::Rgb(0.0)));
     }
+    m_bvh.emplace(m_patches);
 }
 
 visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3& n) const {
     const glm::dvec3 x = x_world - m_origin;
-    const ShootResult shot =
-        shoot(ShooterFrame::at(x, n), m_patches, m_hemicube,
-              {.method = Visibility::ABuffer, .subpixels = 8, .occlusion = false});
+    const ShootResult shot = shoot(ShooterFrame::at(x, n), m_patches, m_hemicube,
+                                   {.method = Visibility::ABuffer,
+                                    .subpixels = 8,
+                                    .occlusion = false,
+                                    .bvh = &*m_bvh,
+                                    .sparse = true});
     visdb::Rgb h(0.0);
-    for (std::size_t j = 0; j < m_patches.size(); ++j) {
-        const double f = shot.form_factor[j];
+    for (const auto [j, f] : shot.hits)
         // A surface reflects from its front only
-        if (f > 0.0 && glm::dot(x - m_centroid[j], m_normal[j]) > 0.0) h += f * m_reflected[j];
-    }
+        if (glm::dot(x - m_centroid[j], m_normal[j]) > 0.0) h += f * m_reflected[j];
     return h;
 }
 

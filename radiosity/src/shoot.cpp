@@ -175,17 +175,20 @@ struct DepthPlane {
 template <int S>
 struct Fragment {
     std::uint32_t pixel;
-    std::uint32_t patch;
+    std::uint32_t patch;  // local id: index into FragmentBuffer::patch_of
     float depth;
     std::uint32_t fine;  // index into the fine masks, or kNoPatch
     Mask<S> mask;
 };
 
-// Everything one shot accumulates before propagation.
+// Everything one shot accumulates before propagation. Patches are numbered in the order they
+// are visited (local ids), so nothing in a shot costs the size of the whole patch list.
 template <int S>
 struct FragmentBuffer {
     std::vector<Fragment<S>> fragments;
     std::vector<Mask<2 * S>> fine;
+    std::vector<std::uint32_t> patch_of;  // local id → patch index
+    std::vector<double> opacity;          // local id → opacity
 };
 
 // ---------------------------------------------------------------------------------------
@@ -293,31 +296,40 @@ void project_patch(const Hemicube& hc, const glm::dvec3 local[3], Emit&& emit) {
     // Points closer than this to the shooting point are dropped (near plane), metres
     constexpr double kNear = 1e-9;
     for (int f = 0; f < kFaceCount; ++f) {
+        const glm::dvec3 q[3] = {to_face(f, local[0]), to_face(f, local[1]), to_face(f, local[2])};
+        // Clip to the face frustum: d >= near, |sx| <= d, and sy in [-d, d] or [0, d]; a
+        // triangle wholly outside one of the planes is rejected before any clipping (as the
+        // clipper would: all corners strictly outside)
+        const auto near = [](const glm::dvec3& x) { return x.z - kNear; };
+        const auto right = [](const glm::dvec3& x) { return x.z - x.x; };
+        const auto left = [](const glm::dvec3& x) { return x.z + x.x; };
+        const auto top = [](const glm::dvec3& x) { return x.z - x.y; };
+        const auto bottom = [f](const glm::dvec3& x) { return f == kTop ? x.z + x.y : x.y; };
+        const auto outside = [&q](auto&& plane) {
+            return plane(q[0]) < 0.0 && plane(q[1]) < 0.0 && plane(q[2]) < 0.0;
+        };
+        if (outside(near) || outside(right) || outside(left) || outside(top) || outside(bottom))
+            continue;
         Polygon3 poly;
-        for (int k = 0; k < 3; ++k) poly.push_back(to_face(f, local[k]));
-        // Clip to the face frustum: d >= near, |sx| <= d, and sy in [-d, d] or [0, d]
-        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z - kNear; });
-        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z - q.x; });
-        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z + q.x; });
-        poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z - q.y; });
-        if (f == kTop)
-            poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.z + q.y; });
-        else
-            poly = clip_polygon(poly, [](const glm::dvec3& q) { return q.y; });
+        for (const glm::dvec3& x : q) poly.push_back(x);
+        poly = clip_polygon(poly, near);
+        poly = clip_polygon(poly, right);
+        poly = clip_polygon(poly, left);
+        poly = clip_polygon(poly, top);
+        poly = clip_polygon(poly, bottom);
         if (poly.size() < 3) continue;
         // Project to pixel coordinates
         Poly2 p2;
         double dmin = poly[0].z;
-        for (const auto& q : poly) {
-            p2.push_back({std::clamp(hc.pixel_x(q.x / q.z), 0.0, double(hc.width(f))),
-                          std::clamp(hc.pixel_y(f, q.y / q.z), 0.0, double(hc.height(f)))});
-            dmin = std::min(dmin, q.z);
+        for (const auto& c : poly) {
+            p2.push_back({std::clamp(hc.pixel_x(c.x / c.z), 0.0, double(hc.width(f))),
+                          std::clamp(hc.pixel_y(f, c.y / c.z), 0.0, double(hc.height(f)))});
+            dmin = std::min(dmin, c.z);
         }
         if (std::abs(signed_area2(p2)) <= 1e-14) continue;
         // Plane of the patch in face coordinates
-        const glm::dvec3 q0 = to_face(f, local[0]);
-        const glm::dvec3 nrm = glm::cross(to_face(f, local[1]) - q0, to_face(f, local[2]) - q0);
-        const DepthPlane plane{nrm, glm::dot(nrm, q0), dmin};
+        const glm::dvec3 nrm = glm::cross(q[1] - q[0], q[2] - q[0]);
+        const DepthPlane plane{nrm, glm::dot(nrm, q[0]), dmin};
         emit(f, p2, plane);
     }
 }
@@ -335,13 +347,13 @@ struct Bundle {
 // transmittance left after the translucent patches it went through.
 template <typename M>
 void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
-               std::span<const Patch> all, double delta, bool translucency, std::vector<double>& ff,
-               std::vector<Bundle<M>>& bundles) {
+               std::span<const double> opacity, double delta, bool translucency,
+               std::vector<double>& ff, std::vector<Bundle<M>>& bundles) {
     bundles.clear();
     bundles.push_back({M::full(), 1.0});
     const double per_sample = delta / M::kSamples;
     for (std::size_t f = 0; f < masks.size() && !bundles.empty(); ++f) {
-        const double alpha = translucency ? all[patches[f]].opacity : 1.0;
+        const double alpha = translucency ? opacity[patches[f]] : 1.0;
         const std::size_t n = bundles.size();
         for (std::size_t b = 0; b < n; ++b) {
             const M in = bundles[b].mask & masks[f];
@@ -360,16 +372,18 @@ void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
 // ray bundle is cut by opaque fragments.
 template <typename M>
 void merge_occlusion(std::span<const M> masks, std::span<const std::uint32_t> patches,
-                     std::span<const Patch> all, std::vector<std::uint64_t>& pairs) {
+                     std::span<const double> opacity, std::span<const std::uint32_t> patch_of,
+                     std::vector<std::uint64_t>& pairs) {
     for (std::size_t a = 0; a < masks.size(); ++a) {
         M test = masks[a];
         for (std::size_t b = a + 1; b < masks.size(); ++b) {
             if ((test & masks[b]).empty()) continue;
             if (patches[b] != patches[a]) {
-                const std::uint64_t key = (std::uint64_t{patches[b]} << 32) | patches[a];
+                const std::uint64_t key =
+                    (std::uint64_t{patch_of[patches[b]]} << 32) | patch_of[patches[a]];
                 if (pairs.empty() || pairs.back() != key) pairs.push_back(key);
             }
-            if (all[patches[b]].opacity >= 1.0) {
+            if (opacity[patches[b]] >= 1.0) {
                 test = test.and_not(masks[b]);
                 if (test.empty()) break;
             }
@@ -419,6 +433,13 @@ class ClosedPixels {
             y0 = std::min(y0, v.y);
             y1 = std::max(y1, v.y);
         }
+        return hidden(hc, face, x0, x1, y0, y1, dmin);
+    }
+
+    // True when every pixel of the rectangle [x0, x1] × [y0, y1] (pixel coordinates) of `face`
+    // is closed nearer than `dmin`.
+    bool hidden(const Hemicube& hc, int face, double x0, double x1, double y0, double y1,
+                double dmin) const {
         const int W = hc.width(face), H = hc.height(face);
         const int i0 = std::clamp(static_cast<int>(std::floor(x0)), 0, W - 1);
         const int i1 = std::clamp(static_cast<int>(std::ceil(x1)), i0 + 1, W);
@@ -453,8 +474,54 @@ class ClosedPixels {
     std::vector<float> m_deepest;
 };
 
-// Scan-converts every patch into fragments; culls pieces behind closed pixels when no
-// occlusion lists are asked for (Algorithm 2 lists hidden patches behind their occluders too).
+// True when nothing in `box` can take a form factor: it lies wholly behind the shooter's
+// plane, or on every face it reaches behind closed pixels. Conservative: the projection of a
+// box wholly in front of a face is inside the bounds of its corners' projections, its depth
+// no less than its nearest corner's; a box reaching behind a face's near plane is taken to
+// cover the whole face.
+template <int S>
+bool box_hidden(const ShooterFrame& frame, const Hemicube& hc, const ClosedPixels<S>& closed,
+                const Box& box) {
+    glm::dvec3 local[8];
+    bool ahead = false;
+    for (int k = 0; k < 8; ++k) {
+        local[k] = frame.to_local({k & 1 ? box.hi.x : box.lo.x, k & 2 ? box.hi.y : box.lo.y,
+                                   k & 4 ? box.hi.z : box.lo.z});
+        ahead = ahead || local[k].z > 0.0;
+    }
+    if (!ahead) return true;
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    for (int f = 0; f < kFaceCount; ++f) {
+        double a0 = kInf, a1 = -kInf, b0 = kInf, b1 = -kInf, dmin = kInf, dmax = -kInf;
+        for (const glm::dvec3& l : local) {
+            const glm::dvec3 q = to_face(f, l);
+            dmin = std::min(dmin, q.z);
+            dmax = std::max(dmax, q.z);
+            if (q.z > 0.0) {
+                a0 = std::min(a0, q.x / q.z);
+                a1 = std::max(a1, q.x / q.z);
+                b0 = std::min(b0, q.y / q.z);
+                b1 = std::max(b1, q.y / q.z);
+            }
+        }
+        if (dmax <= 0.0) continue;  // wholly behind this face
+        const double bottom = f == kTop ? -1.0 : 0.0;
+        double x0 = 0.0, x1 = hc.width(f), y0 = 0.0, y1 = hc.height(f);
+        if (dmin > 0.0) {
+            if (a1 < -1.0 || a0 > 1.0 || b1 < bottom || b0 > 1.0) continue;  // off this face
+            x0 = hc.pixel_x(std::max(a0, -1.0));
+            x1 = hc.pixel_x(std::min(a1, 1.0));
+            y0 = hc.pixel_y(f, std::max(b0, bottom));
+            y1 = hc.pixel_y(f, std::min(b1, 1.0));
+        }
+        if (!closed.hidden(hc, f, x0, x1, y0, y1, std::max(dmin, 0.0))) return false;
+    }
+    return true;
+}
+
+// Scan-converts the patches into fragments, nearest first; culls pieces (and, walking a BVH,
+// whole nodes) behind closed pixels when no occlusion lists are asked for (Algorithm 2 lists
+// hidden patches behind their occluders too).
 template <int S>
 FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch> patches,
                                const Hemicube& hc, const ShootOptions& options,
@@ -462,10 +529,10 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
     const bool cull = !options.occlusion;
     ClosedPixels<S> closed(hc.pixel_count());
     FragmentBuffer<S> buffer;
-    for (const auto& nearest_and_patch : front_to_back(frame, patches, options)) {
-        // A plain variable, not a structured binding: clang 14 (clang-tidy) cannot capture
-        // structured bindings in the lambda below
-        const std::uint32_t id = nearest_and_patch.second;
+    const auto rasterize = [&](std::uint32_t id) {
+        const auto local_id = static_cast<std::uint32_t>(buffer.patch_of.size());
+        buffer.patch_of.push_back(id);
+        buffer.opacity.push_back(patches[id].opacity);
         const glm::dvec3 local[3] = {frame.to_local(patches[id].p[0]),
                                      frame.to_local(patches[id].p[1]),
                                      frame.to_local(patches[id].p[2])};
@@ -477,24 +544,44 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
             }
             const std::size_t first = buffer.fragments.size();
             if constexpr (S == 1)
-                rasterize_points(hc, face, p, plane, id, buffer);
+                rasterize_points(hc, face, p, plane, local_id, buffer);
             else
-                rasterize_abuffer<S>(hc, face, p, plane, id, buffer, result.undersampled_pixels);
+                rasterize_abuffer<S>(hc, face, p, plane, local_id, buffer,
+                                     result.undersampled_pixels);
             if (opaque) closed.add(buffer, first);
         });
+    };
+    if (options.bvh && !options.only) {
+        options.bvh->front_to_back(
+            frame.origin,
+            [&](const Box& box) {
+                if (!cull || !box_hidden(frame, hc, closed, box)) return true;
+                ++result.hidden_nodes;
+                return false;
+            },
+            [&](std::uint32_t id) {
+                if (id != options.exclude && id < patches.size()) rasterize(id);
+            });
+    } else {
+        for (const auto& nearest_and_patch : front_to_back(frame, patches, options))
+            rasterize(nearest_and_patch.second);
     }
+    result.visited = buffer.patch_of.size();
     result.fragments = buffer.fragments.size();
     return buffer;
 }
 
-// Per pixel, the depth-sorted fragment list: form factors propagated through it (PropFF) and,
-// when asked, its occlusion pairs (MergeOcclusionList), as (receiver << 32 | occluder) keys.
+// Per pixel, the depth-sorted fragment list: form factors propagated through it (PropFF) into
+// `ff` (by local id) and, when asked, its occlusion pairs (MergeOcclusionList), as (receiver
+// << 32 | occluder) keys.
 template <int S>
-void resolve_pixels(const FragmentBuffer<S>& buffer, std::span<const Patch> patches,
-                    const Hemicube& hc, const ShootOptions& options, ShootResult& result,
+void resolve_pixels(const FragmentBuffer<S>& buffer, const Hemicube& hc,
+                    const ShootOptions& options, std::vector<double>& ff,
                     std::vector<std::uint64_t>& pairs,
                     std::chrono::steady_clock::duration& occlusion_time) {
     const bool abuffer = options.method == Visibility::ABuffer;
+    const std::span<const double> opacity = buffer.opacity;
+    const std::span<const std::uint32_t> patch_of = buffer.patch_of;
     // Bucket fragments by pixel (counting sort), then sort each list by depth
     const std::size_t npix = hc.pixel_count();
     std::vector<std::uint32_t> start(npix + 1, 0);
@@ -515,9 +602,11 @@ void resolve_pixels(const FragmentBuffer<S>& buffer, std::span<const Patch> patc
     for (std::size_t px = 0; px < npix; ++px) {
         auto first = order.begin() + start[px], last = order.begin() + start[px + 1];
         if (first == last) continue;
+        // Ties in depth go by patch index, whatever the order the patches were visited in
         std::sort(first, last, [&](std::uint32_t a, std::uint32_t b) {
             const auto &fa = buffer.fragments[a], &fb = buffer.fragments[b];
-            return fa.depth < fb.depth || (fa.depth == fb.depth && fa.patch < fb.patch);
+            return fa.depth < fb.depth ||
+                   (fa.depth == fb.depth && patch_of[fa.patch] < patch_of[fb.patch]);
         });
         masks.clear();
         ids.clear();
@@ -530,10 +619,10 @@ void resolve_pixels(const FragmentBuffer<S>& buffer, std::span<const Patch> patc
         }
         const double delta = hc.delta(px);
         if (!fine) {
-            propagate<Mask<S>>(masks, ids, patches, delta, abuffer, result.form_factor, bundles);
+            propagate<Mask<S>>(masks, ids, opacity, delta, abuffer, ff, bundles);
             if (options.occlusion && masks.size() > 1) {
                 const auto t0 = std::chrono::steady_clock::now();
-                merge_occlusion<Mask<S>>(masks, ids, patches, pairs);
+                merge_occlusion<Mask<S>>(masks, ids, opacity, patch_of, pairs);
                 occlusion_time += std::chrono::steady_clock::now() - t0;
             }
         } else {
@@ -543,11 +632,10 @@ void resolve_pixels(const FragmentBuffer<S>& buffer, std::span<const Patch> patc
                 const auto& f = buffer.fragments[*it];
                 fine_masks.push_back(f.fine != kNoPatch ? buffer.fine[f.fine] : upsample(f.mask));
             }
-            propagate<Mask<2 * S>>(fine_masks, ids, patches, delta, abuffer, result.form_factor,
-                                   fine_bundles);
+            propagate<Mask<2 * S>>(fine_masks, ids, opacity, delta, abuffer, ff, fine_bundles);
             if (options.occlusion && fine_masks.size() > 1) {
                 const auto t0 = std::chrono::steady_clock::now();
-                merge_occlusion<Mask<2 * S>>(fine_masks, ids, patches, pairs);
+                merge_occlusion<Mask<2 * S>>(fine_masks, ids, opacity, patch_of, pairs);
                 occlusion_time += std::chrono::steady_clock::now() - t0;
             }
         }
@@ -558,15 +646,26 @@ template <int S>
 ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches,
                        const Hemicube& hc, const ShootOptions& options) {
     ShootResult result;
-    result.form_factor.assign(patches.size(), 0.0);
     const FragmentBuffer<S> buffer = scan_convert<S>(frame, patches, hc, options, result);
+    std::vector<double> ff(buffer.patch_of.size(), 0.0);
     std::vector<std::uint64_t> pairs;
     std::chrono::steady_clock::duration occlusion_time{};
-    resolve_pixels<S>(buffer, patches, hc, options, result, pairs, occlusion_time);
+    resolve_pixels<S>(buffer, hc, options, ff, pairs, occlusion_time);
     // The patches absorb or stop at most what leaves the shooting point (ΔF sum to 1)
-    ABRAD_DCHECK(
-        std::accumulate(result.form_factor.begin(), result.form_factor.end(), 0.0) <= 1.0 + 1e-9,
-        "form factors from one point sum to more than 1");
+    ABRAD_DCHECK(std::accumulate(ff.begin(), ff.end(), 0.0) <= 1.0 + 1e-9,
+                 "form factors from one point sum to more than 1");
+    // Local ids back to patch indices (each patch is visited at most once)
+    if (options.sparse) {
+        for (std::size_t l = 0; l < ff.size(); ++l)
+            if (ff[l] > 0.0) result.hits.push_back({buffer.patch_of[l], ff[l]});
+        std::sort(result.hits.begin(), result.hits.end(),
+                  [](const PatchFormFactor& a, const PatchFormFactor& b) {
+                      return a.patch < b.patch;
+                  });
+    } else {
+        result.form_factor.assign(patches.size(), 0.0);
+        for (std::size_t l = 0; l < ff.size(); ++l) result.form_factor[buffer.patch_of[l]] = ff[l];
+    }
 
     // Deduplicate occlusion pairs
     const auto t_dedup = std::chrono::steady_clock::now();

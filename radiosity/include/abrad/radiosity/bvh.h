@@ -83,6 +83,42 @@ class Bvh {
                  visit);
     }
 
+    /// Walks the tree nearest child first as seen from `eye` (an ordered depth-first walk,
+    /// front to back up to the overlap of sibling boxes): `enter(box)` says whether a node is
+    /// entered (false skips its whole subtree), and `visit(item)` gets every item of an
+    /// entered leaf. For occlusion culling (shoot.h), where a node behind closed pixels is
+    /// skipped.
+    template <typename Enter, typename Visit>
+    void front_to_back(const glm::dvec3& eye, Enter&& enter, Visit&& visit) const {
+        if (m_nodes.empty()) return;
+        std::uint32_t stack[64];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& n = m_nodes[stack[--top]];
+            if (!enter(n.box)) continue;
+            if (n.count > 0) {
+                for (std::uint32_t i = 0; i < n.count; ++i) visit(m_order[n.first + i]);
+                continue;
+            }
+            // The nearer child on top of the stack
+            const bool left_first = distance2(m_nodes[n.first].box, eye) <=
+                                    distance2(m_nodes[n.first + 1].box, eye);
+            stack[top++] = left_first ? n.first + 1 : n.first;
+            stack[top++] = left_first ? n.first : n.first + 1;
+        }
+    }
+
+    /// Squared distance from `p` to the box (0 inside).
+    static double distance2(const Box& b, const glm::dvec3& p) {
+        double d2 = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            const double d = p[k] < b.lo[k] ? b.lo[k] - p[k] : (p[k] > b.hi[k] ? p[k] - b.hi[k] : 0.0);
+            d2 += d * d;
+        }
+        return d2;
+    }
+
   private:
     struct Node {
         Box box;

@@ -6,7 +6,7 @@
 //
 // Elements are clusters of the scene's triangles: every planar region (coplanar, connected
 // triangles of one surface) is cut by a square grid of side `element_size` in its plane, and
-// the triangles (those larger than a cell subdivided first) whose centroid falls in one cell
+// the triangles (those longer than its diagonal subdivided first) whose centroid falls in one cell
 // make one element. The element's radiosity is constant; values between elements are
 // interpolated bilinearly from the cell centres of the region's grid.
 
@@ -147,6 +147,7 @@ class IndirectField {
     std::vector<Patch> m_patches;
     std::vector<glm::dvec3> m_centroid, m_normal;
     std::vector<visdb::Rgb> m_reflected;
+    std::optional<Bvh> m_bvh;  // over m_patches: probes cost what they see
     Hemicube m_hemicube;
 };
 

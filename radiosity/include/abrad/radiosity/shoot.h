@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "abrad/radiosity/bvh.h"
 #include "abrad/radiosity/geometry.h"
 #include "abrad/radiosity/hemicube.h"
 
@@ -32,6 +33,21 @@ struct ShootOptions {
     /// When set, only these patch indices are rasterized (the rest get form factor 0): the
     /// patches a light can reach (cull.h). Not owned; must outlive the call.
     const std::vector<std::uint32_t>* only = nullptr;
+    /// When set (a BVH over the same patches, and `only` unset), the patches are visited
+    /// front to back through it and, without occlusion lists, a whole node whose box lies
+    /// behind the shooter's plane or behind closed pixels is skipped: a hemicube costs what it
+    /// sees, not the size of the building. Form factors are those of the plain walk. Not
+    /// owned; must outlive the call.
+    const Bvh* bvh = nullptr;
+    /// Form factors as `ShootResult::hits` (only the patches that got some) instead of the
+    /// dense `form_factor`, so that a shot's cost does not grow with the patch count.
+    bool sparse = false;
+};
+
+/// A patch and its form factor from the shooting point.
+struct PatchFormFactor {
+    std::uint32_t patch;
+    double ff;
 };
 
 /// One occlusion relation: `occluder` is in front of `receiver` along some hemicube ray.
@@ -46,12 +62,16 @@ struct ShootResult {
     /// emitted power the patch absorbs or stops, weighted by its opacity). Same size as the
     /// patch list.
     std::vector<double> form_factor;
+    /// With ShootOptions::sparse, instead of `form_factor`: the patches with F > 0, ascending.
+    std::vector<PatchFormFactor> hits;
     /// Occlusion pairs sorted by (receiver, occluder), without duplicates.
     std::vector<OcclusionPair> occlusion;
     std::size_t fragments = 0;            ///< fragments stored over all pixels
     std::size_t undersampled_pixels = 0;  ///< fragments that needed the finer mask
     std::size_t raw_pairs = 0;            ///< occlusion pairs found before deduplication
     std::size_t hidden_pieces = 0;        ///< patch pieces culled as hidden behind closed pixels
+    std::size_t hidden_nodes = 0;         ///< BVH nodes skipped whole (behind or hidden)
+    std::size_t visited = 0;              ///< patches clipped and projected
     double seconds_occlusion = 0.0;       ///< time spent merging occlusion lists (Algorithm 2)
 
     /// Occluders of `receiver` (a sub-range of `occlusion`).
