@@ -256,8 +256,8 @@ class Solver {
             // A triangle that fits a cell's diagonal stays whole (the elements cluster whole
             // triangles; every piece is one more triangle in every hemicube)
             const double diagonal = std::sqrt(2.0) * m_options.element_size;
-            const int n = static_cast<int>(
-                std::clamp(std::ceil(longest / diagonal - 1e-9), 1.0, 64.0));
+            const int n =
+                static_cast<int>(std::clamp(std::ceil(longest / diagonal - 1e-9), 1.0, 64.0));
             const glm::dvec3 e1 = (p.p[1] - p.p[0]) / double(n), e2 = (p.p[2] - p.p[0]) / double(n);
             auto at = [&](int i, int j) { return p.p[0] + double(i) * e1 + double(j) * e2; };
             // Corner coordinates are whole multiples: a piece's corners are exact where n = 1
@@ -299,8 +299,8 @@ class Solver {
             const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
             Scratch& s = m_scratch->local();
             Row row;
-            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
-                     s.touched, row, m_region_normal);
+            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back, s.touched,
+                     row, m_region_normal);
             const visdb::Rgb power = m_in.emittance[lights[li]] * area(light);
             std::lock_guard lock(merge);
             for (const Entry& x : row.entries) {
@@ -341,8 +341,8 @@ class Solver {
             const ShooterFrame frame = ShooterFrame::at(el.centroid, m_region_normal[el.region]);
             const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
             Scratch& s = m_scratch->local();
-            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back,
-                     s.touched, m_rows[todo[k]], m_region_normal);
+            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back, s.touched,
+                     m_rows[todo[k]], m_region_normal);
         });
         m_sol.rows_computed += todo.size();
         for (const std::uint32_t e : todo)

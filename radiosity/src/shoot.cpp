@@ -658,10 +658,9 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
     if (options.sparse) {
         for (std::size_t l = 0; l < ff.size(); ++l)
             if (ff[l] > 0.0) result.hits.push_back({buffer.patch_of[l], ff[l]});
-        std::sort(result.hits.begin(), result.hits.end(),
-                  [](const PatchFormFactor& a, const PatchFormFactor& b) {
-                      return a.patch < b.patch;
-                  });
+        std::sort(
+            result.hits.begin(), result.hits.end(),
+            [](const PatchFormFactor& a, const PatchFormFactor& b) { return a.patch < b.patch; });
     } else {
         result.form_factor.assign(patches.size(), 0.0);
         for (std::size_t l = 0; l < ff.size(); ++l) result.form_factor[buffer.patch_of[l]] = ff[l];

@@ -102,8 +102,8 @@ class Bvh {
                 continue;
             }
             // The nearer child on top of the stack
-            const bool left_first = distance2(m_nodes[n.first].box, eye) <=
-                                    distance2(m_nodes[n.first + 1].box, eye);
+            const bool left_first =
+                distance2(m_nodes[n.first].box, eye) <= distance2(m_nodes[n.first + 1].box, eye);
             stack[top++] = left_first ? n.first + 1 : n.first;
             stack[top++] = left_first ? n.first : n.first + 1;
         }
@@ -113,7 +113,8 @@ class Bvh {
     static double distance2(const Box& b, const glm::dvec3& p) {
         double d2 = 0.0;
         for (int k = 0; k < 3; ++k) {
-            const double d = p[k] < b.lo[k] ? b.lo[k] - p[k] : (p[k] > b.hi[k] ? p[k] - b.hi[k] : 0.0);
+            const double d =
+                p[k] < b.lo[k] ? b.lo[k] - p[k] : (p[k] > b.hi[k] ? p[k] - b.hi[k] : 0.0);
             d2 += d * d;
         }
         return d2;
