@@ -43,9 +43,6 @@ glm::dvec3 to_face(int face, const glm::dvec3& l) {
     }
 }
 
-namespace {
-
-// Inverse of to_face: local coordinates of face coordinates.
 glm::dvec3 from_face(int face, const glm::dvec3& f) {
     switch (face) {
         case kTop:
@@ -60,8 +57,6 @@ glm::dvec3 from_face(int face, const glm::dvec3& f) {
             return {f.x, -f.z, f.y};  // kNegV
     }
 }
-
-}  // namespace
 
 Hemicube::Hemicube(int resolution) : m_resolution(resolution) {
     if (resolution < 2 || resolution % 2 != 0)

@@ -3,7 +3,6 @@
 
 #include "abrad/radiosity/indirect.h"
 
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -18,6 +17,7 @@
 #include <string>
 
 #include "abrad/radiosity/hemicube.h"
+#include "abrad/radiosity/polygon.h"
 
 namespace abrad::radiosity {
 
@@ -42,40 +42,20 @@ struct Row {
     bool known = false;
 };
 
-// Triangles the hemicubes rasterize: the scene's, those longer than a cell's diagonal cut into n²
-// similar pieces, each piece knowing its element.
-struct Pieces {
-    std::vector<Patch> patch;
-    std::vector<std::uint32_t> element;
-    std::vector<glm::dvec3> centroid;
-};
-
-// Form factors from one shooting point onto the elements, fronts and backs apart, given the
-// hemicube's form factors of the pieces it saw (ascending piece index).
-void fold_row(std::span<const PatchFormFactor> piece_ff, const Pieces& pieces,
+// Form factors from one shooting point onto the elements (the hemicube's, one per element,
+// ascending), each on the element's front or, with kBack, its back.
+void fold_row(std::span<const PatchFormFactor> element_ff,
               const std::vector<IndirectSolution::Element>& elements, const glm::dvec3& from,
-              std::vector<double>& front, std::vector<double>& back,
-              std::vector<std::uint32_t>& touched, Row& row,
-              const std::vector<glm::dvec3>& region_normal) {
-    touched.clear();
-    for (const auto [j, f] : piece_ff) {
-        const std::uint32_t e = pieces.element[j];
-        if (front[e] == 0.0 && back[e] == 0.0) touched.push_back(e);
-        // The shooter lights the element's front when it lies in front of the element's plane
-        if (glm::dot(from - pieces.centroid[j], region_normal[elements[e].region]) > 0.0)
-            front[e] += f;
-        else
-            back[e] += f;
-    }
-    std::sort(touched.begin(), touched.end());
+              const std::vector<glm::dvec3>& region_normal, Row& row) {
     row.entries.clear();
     row.front = row.total = 0.0;
-    for (const std::uint32_t e : touched) {
-        if (front[e] > 0.0) row.entries.push_back({e, static_cast<float>(front[e])});
-        if (back[e] > 0.0) row.entries.push_back({e | kBack, static_cast<float>(back[e])});
-        row.front += front[e];
-        row.total += front[e] + back[e];
-        front[e] = back[e] = 0.0;
+    for (const auto [e, f] : element_ff) {
+        // The shooter lights the element's front when it lies in front of the element's plane
+        const bool front =
+            glm::dot(from - elements[e].centroid, region_normal[elements[e].region]) > 0.0;
+        row.entries.push_back({front ? e : e | kBack, static_cast<float>(f)});
+        row.front += front ? f : 0.0;
+        row.total += f;
     }
     row.known = true;
 }
@@ -138,11 +118,47 @@ void validate(const IndirectOptions& o) {
 
 namespace {
 
-// Scratch per thread for folding piece form factors into element rows
-struct Scratch {
-    std::vector<double> front, back;
-    std::vector<std::uint32_t> touched;
+// The elements as the hemicube's targets: a triangle within one cell gives its whole form
+// factor to that cell's element; a larger one gives each fragment's to the element of the cell
+// its pixel sees (or, off the grid's elements, to the element holding most of the triangle).
+class ElementTargets final : public Targets {
+  public:
+    ElementTargets(const IndirectSolution& sol, std::span<const std::uint32_t> region,
+                   std::vector<std::uint32_t> whole, std::vector<std::uint32_t> main)
+        : m_sol(sol), m_region(region), m_whole(std::move(whole)), m_main(std::move(main)) {}
+
+    std::uint32_t whole(std::uint32_t t) const override { return m_whole[t]; }
+
+    std::uint32_t at(std::uint32_t t, const glm::dvec3& x) const override {
+        const std::uint32_t r = m_region[t];
+        const IndirectSolution::Grid& g = m_sol.grids[r];
+        const double size = m_sol.element_size;
+        const int i = static_cast<int>(std::floor(glm::dot(x - g.origin, g.u) / size));
+        const int j = static_cast<int>(std::floor(glm::dot(x - g.origin, g.v) / size));
+        const auto it = m_sol.cell_element.find(IndirectSolution::cell_key(r, i, j));
+        return it != m_sol.cell_element.end() ? it->second : m_main[t];
+    }
+
+  private:
+    const IndirectSolution& m_sol;
+    std::span<const std::uint32_t> m_region;
+    std::vector<std::uint32_t> m_whole, m_main;
 };
+
+// Area (in squared units of the coordinates) and centroid of a simple polygon.
+std::pair<double, glm::dvec2> area_centroid(const Polygon2& p) {
+    double a2 = 0.0;
+    glm::dvec2 c(0.0);
+    for (std::size_t k = 0; k < p.size(); ++k) {
+        const glm::dvec2& x = p[k];
+        const glm::dvec2& y = p[(k + 1) % p.size()];
+        const double w = x.x * y.y - y.x * x.y;
+        a2 += w;
+        c += w * (x + y);
+    }
+    if (a2 == 0.0) return {0.0, p.empty() ? glm::dvec2(0.0) : p[0]};
+    return {0.5 * std::abs(a2), c / (3.0 * a2)};
+}
 
 // The solver's state: elements and their pieces, the rows computed so far, and the Southwell
 // unknowns (H received, B shot, r unshot = ρH − B). One method per step of solve_indirect.
@@ -163,12 +179,11 @@ class Solver {
         m_sol.element_size = m_options.element_size;
         make_grids();
         make_elements();
-        // Each hemicube walks the pieces front to back and skips what closed pixels hide
-        m_bvh = std::make_unique<Bvh>(m_pieces.patch);
+        // Each hemicube walks the triangles front to back, skips what closed pixels hide, and
+        // hands what it sees to the elements
+        m_bvh = std::make_unique<Bvh>(m_in.patches);
         m_shoot.bvh = m_bvh.get();
-        m_scratch = std::make_unique<tbb::enumerable_thread_specific<Scratch>>([ne = m_ne] {
-            return Scratch{std::vector<double>(ne, 0.0), std::vector<double>(ne, 0.0), {}};
-        });
+        m_shoot.targets = m_targets.get();
         shoot_lights();
         m_r.resize(m_ne);
         m_B.assign(m_ne, visdb::Rgb(0.0));
@@ -216,12 +231,8 @@ class Solver {
         }
     }
 
-    // The element of the cell of region r holding point c (made when new)
-    std::uint32_t element_of(std::uint32_t r, const glm::dvec3& c) {
-        const double size = m_options.element_size;
-        const auto& g = m_sol.grids[r];
-        const int i = static_cast<int>(std::floor(glm::dot(c - g.origin, g.u) / size));
-        const int j = static_cast<int>(std::floor(glm::dot(c - g.origin, g.v) / size));
+    // The element of cell (i, j) of region r (made when new)
+    std::uint32_t element_of(std::uint32_t r, int i, int j) {
         const auto [it, inserted] = m_sol.cell_element.try_emplace(
             IndirectSolution::cell_key(r, i, j), static_cast<std::uint32_t>(m_sol.elements.size()));
         if (inserted) {
@@ -231,45 +242,83 @@ class Solver {
         return it->second;
     }
 
-    void add_piece(std::size_t t, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-        const Patch piece{{a, b, c}, m_in.patches[t].opacity};
-        const glm::dvec3 mid = (a + b + c) / 3.0;
-        const std::uint32_t e = element_of(m_in.region[t], mid);
-        const double piece_area = area(piece);
+    void add_to(std::uint32_t e, std::size_t t, double piece_area, const glm::dvec3& centroid) {
         auto& el = m_sol.elements[e];
         el.area += piece_area;
-        el.centroid += piece_area * mid;
+        el.centroid += piece_area * centroid;
         m_rho_area[e] += piece_area * m_in.reflectance[t];
-        m_pieces.patch.push_back(piece);
-        m_pieces.element.push_back(e);
-        m_pieces.centroid.push_back(mid);
     }
 
-    // Pieces and elements: triangles longer than a cell's diagonal cut into n² similar
-    // pieces, each piece in the element of the cell holding its centroid
+    // Elements: each triangle cut by its region's grid into exact pieces (triangle ∩ cell),
+    // each piece added to its cell's element; a sliver under 1/1000 of a cell goes to the
+    // triangle's largest piece instead of making an element of its own
     void make_elements() {
-        for (std::size_t t = 0; t < m_in.patches.size(); ++t) {
+        const double size = m_options.element_size;
+        const std::size_t nt = m_in.patches.size();
+        std::vector<std::uint32_t> whole(nt, kNoPatch), main(nt, kNoPatch);
+        struct Piece {
+            int i, j;
+            double area;  // m²
+            glm::dvec3 centroid;
+        };
+        std::vector<Piece> pieces;
+        for (std::size_t t = 0; t < nt; ++t) {
             const Patch& p = m_in.patches[t];
-            double longest = 0.0;
-            for (int k = 0; k < 3; ++k)
-                longest = std::max(longest, glm::length(p.p[(k + 1) % 3] - p.p[k]));
-            // A triangle that fits a cell's diagonal stays whole (the elements cluster whole
-            // triangles; every piece is one more triangle in every hemicube)
-            const double diagonal = std::sqrt(2.0) * m_options.element_size;
-            const int n =
-                static_cast<int>(std::clamp(std::ceil(longest / diagonal - 1e-9), 1.0, 64.0));
-            const glm::dvec3 e1 = (p.p[1] - p.p[0]) / double(n), e2 = (p.p[2] - p.p[0]) / double(n);
-            auto at = [&](int i, int j) { return p.p[0] + double(i) * e1 + double(j) * e2; };
-            // Corner coordinates are whole multiples: a piece's corners are exact where n = 1
-            for (int i = 0; i < n; ++i)
-                for (int j = 0; i + j < n; ++j) {
-                    add_piece(t, n == 1 ? p.p[0] : at(i, j), n == 1 ? p.p[1] : at(i + 1, j),
-                              n == 1 ? p.p[2] : at(i, j + 1));
-                    if (i + j + 2 <= n) add_piece(t, at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            const std::uint32_t r = m_in.region[t];
+            const IndirectSolution::Grid& g = m_sol.grids[r];
+            // The triangle in cell units of the region's grid
+            Polygon2 tri;
+            glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+            for (const glm::dvec3& x : p.p) {
+                const glm::dvec2 q{glm::dot(x - g.origin, g.u) / size,
+                                   glm::dot(x - g.origin, g.v) / size};
+                tri.push_back(q);
+                lo = glm::min(lo, q);
+                hi = glm::max(hi, q);
+            }
+            const int i0 = static_cast<int>(std::floor(lo.x)),
+                      i1 = static_cast<int>(std::floor(hi.x));
+            const int j0 = static_cast<int>(std::floor(lo.y)),
+                      j1 = static_cast<int>(std::floor(hi.y));
+            const double tri_area = area(p);
+            if (i0 == i1 && j0 == j1) {
+                whole[t] = main[t] = element_of(r, i0, j0);
+                add_to(whole[t], t, tri_area, centroid(p));
+                ++m_sol.pieces;
+                continue;
+            }
+            pieces.clear();
+            for (int j = j0; j <= j1; ++j)
+                for (int i = i0; i <= i1; ++i) {
+                    Polygon2 c = clip_polygon(tri, [&](const glm::dvec2& q) { return q.x - i; });
+                    c = clip_polygon(c, [&](const glm::dvec2& q) { return (i + 1.0) - q.x; });
+                    c = clip_polygon(c, [&](const glm::dvec2& q) { return q.y - j; });
+                    c = clip_polygon(c, [&](const glm::dvec2& q) { return (j + 1.0) - q.y; });
+                    if (c.size() < 3) continue;
+                    const auto [a, q] = area_centroid(c);
+                    if (!(a > 0.0)) continue;
+                    pieces.push_back(
+                        {i, j, a * size * size, g.origin + size * (q.x * g.u + q.y * g.v)});
                 }
+            // Scale the pieces to the triangle's area (the clipping's rounding, and the
+            // region's mean plane, are not the triangle's own)
+            double sum = 0.0;
+            for (const Piece& q : pieces) sum += q.area;
+            if (!(sum > 0.0)) continue;
+            const auto largest =
+                std::max_element(pieces.begin(), pieces.end(),
+                                 [](const Piece& a, const Piece& b) { return a.area < b.area; });
+            main[t] = element_of(r, largest->i, largest->j);
+            for (const Piece& q : pieces) {
+                const double a = q.area * tri_area / sum;
+                const bool sliver = q.area < 1e-3 * size * size;
+                add_to(sliver ? main[t] : element_of(r, q.i, q.j), t, a, q.centroid);
+                m_sol.pieces += !sliver;
+            }
         }
+        m_targets =
+            std::make_unique<ElementTargets>(m_sol, m_in.region, std::move(whole), std::move(main));
         m_ne = m_sol.elements.size();
-        m_sol.pieces = m_pieces.patch.size();
         for (std::size_t e = 0; e < m_ne; ++e) {
             auto& el = m_sol.elements[e];
             if (el.area > 0.0) {
@@ -296,11 +345,9 @@ class Solver {
         tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
             const Patch& light = m_in.patches[lights[li]];
             const ShooterFrame frame = frame_of(light);
-            const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
-            Scratch& s = m_scratch->local();
+            const ShootResult shot = shoot(frame, m_in.patches, m_hemicube, m_shoot);
             Row row;
-            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back, s.touched,
-                     row, m_region_normal);
+            fold_row(shot.hits, m_sol.elements, frame.origin, m_region_normal, row);
             const visdb::Rgb power = m_in.emittance[lights[li]] * area(light);
             std::lock_guard lock(merge);
             for (const Entry& x : row.entries) {
@@ -339,10 +386,8 @@ class Solver {
         tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t k) {
             const auto& el = m_sol.elements[todo[k]];
             const ShooterFrame frame = ShooterFrame::at(el.centroid, m_region_normal[el.region]);
-            const ShootResult shot = shoot(frame, m_pieces.patch, m_hemicube, m_shoot);
-            Scratch& s = m_scratch->local();
-            fold_row(shot.hits, m_pieces, m_sol.elements, frame.origin, s.front, s.back, s.touched,
-                     m_rows[todo[k]], m_region_normal);
+            const ShootResult shot = shoot(frame, m_in.patches, m_hemicube, m_shoot);
+            fold_row(shot.hits, m_sol.elements, frame.origin, m_region_normal, m_rows[todo[k]]);
         });
         m_sol.rows_computed += todo.size();
         for (const std::uint32_t e : todo)
@@ -480,11 +525,10 @@ class Solver {
     std::unique_ptr<Bvh> m_bvh;
     std::string m_label;
     IndirectSolution m_sol;
-    Pieces m_pieces;
     std::vector<visdb::Rgb> m_rho_area;
     std::size_t m_ne = 0;
     double m_total_area = 0.0;
-    std::unique_ptr<tbb::enumerable_thread_specific<Scratch>> m_scratch;
+    std::unique_ptr<ElementTargets> m_targets;
     std::vector<visdb::Rgb> m_H, m_r, m_B;
     std::vector<Row> m_rows;
     std::size_t m_cache_bytes = 0;

@@ -116,6 +116,29 @@ bool span_at(const Poly2& p, double y, double& xl, double& xr) {
     return xl < xr;
 }
 
+// The x-range of a convex polygon within the strip y0 <= y <= y1; false when it misses it.
+bool strip_x_range(const Poly2& p, double y0, double y1, double& xmin, double& xmax) {
+    xmin = std::numeric_limits<double>::infinity();
+    xmax = -xmin;
+    const std::size_t n = p.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const glm::dvec2& a = p[i];
+        const glm::dvec2& b = p[(i + 1) % n];
+        if (a.y >= y0 && a.y <= y1) {
+            xmin = std::min(xmin, a.x);
+            xmax = std::max(xmax, a.x);
+        }
+        // Where the edge crosses the strip's lines
+        for (const double y : {y0, y1})
+            if ((a.y < y && y < b.y) || (b.y < y && y < a.y)) {
+                const double x = a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y);
+                xmin = std::min(xmin, x);
+                xmax = std::max(xmax, x);
+            }
+    }
+    return xmin < xmax;
+}
+
 // Lowest and highest y of a polygon.
 std::pair<double, double> y_extent(const Poly2& p) {
     double lo = p[0].y, hi = p[0].y;
@@ -138,8 +161,28 @@ template <int N>
 struct RowSpans {
     double xl[N], xr[N];
     bool has[N];
+    // As span_at at each sample row (the same arithmetic, so the same bits), edge by edge
     void compute(const Poly2& p, double y0) {
-        for (int k = 0; k < N; ++k) has[k] = span_at(p, y0 + (k + 0.5) / N, xl[k], xr[k]);
+        for (int k = 0; k < N; ++k) {
+            xl[k] = std::numeric_limits<double>::infinity();
+            xr[k] = -xl[k];
+        }
+        const std::size_t n = p.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            const glm::dvec2* a = &p[i];
+            const glm::dvec2* b = &p[(i + 1) % n];
+            if (b->y < a->y || (b->y == a->y && b->x < a->x)) std::swap(a, b);
+            if (!(a->y < b->y) || b->y <= y0 || a->y >= y0 + 1.0) continue;
+            for (int k = 0; k < N; ++k) {
+                const double y = y0 + (k + 0.5) / N;
+                if (a->y <= y && y < b->y) {
+                    const double x = a->x + (y - a->y) * (b->x - a->x) / (b->y - a->y);
+                    xl[k] = std::min(xl[k], x);
+                    xr[k] = std::max(xr[k], x);
+                }
+            }
+        }
+        for (int k = 0; k < N; ++k) has[k] = xl[k] < xr[k];
     }
     // Coverage mask of column [i, i+1]; `sx`, `sy` accumulate the covered sample positions.
     Mask<N> mask(int i, double y0, double& sx, double& sy) const {
@@ -175,7 +218,8 @@ struct DepthPlane {
 template <int S>
 struct Fragment {
     std::uint32_t pixel;
-    std::uint32_t patch;  // local id: index into FragmentBuffer::patch_of
+    std::uint32_t patch;   // local id: index into FragmentBuffer::patch_of
+    std::uint32_t target;  // local id of what takes its form factor (the patch, or a Targets')
     float depth;
     std::uint32_t fine;  // index into the fine masks, or kNoPatch
     Mask<S> mask;
@@ -187,8 +231,39 @@ template <int S>
 struct FragmentBuffer {
     std::vector<Fragment<S>> fragments;
     std::vector<Mask<2 * S>> fine;
-    std::vector<std::uint32_t> patch_of;  // local id → patch index
-    std::vector<double> opacity;          // local id → opacity
+    std::vector<std::uint32_t> patch_of;   // local id → patch index
+    std::vector<double> opacity;           // local id → opacity
+    std::vector<std::uint32_t> target_of;  // local target id → target (with Targets)
+};
+
+// Targets' ids → local ids of one shot: open addressing, grown at half load.
+class LocalIds {
+  public:
+    std::uint32_t id(std::uint32_t global, std::vector<std::uint32_t>& global_of) {
+        if (2 * (global_of.size() + 1) > m_slots.size()) grow(global_of);
+        const std::size_t mask = m_slots.size() - 1;
+        for (std::size_t h = (global * 0x9E3779B1u) & mask;; h = (h + 1) & mask) {
+            std::uint32_t& slot = m_slots[h];
+            if (slot == kNoPatch) {
+                slot = static_cast<std::uint32_t>(global_of.size());
+                global_of.push_back(global);
+                return slot;
+            }
+            if (global_of[slot] == global) return slot;
+        }
+    }
+
+  private:
+    void grow(const std::vector<std::uint32_t>& global_of) {
+        m_slots.assign(std::max<std::size_t>(64, 2 * m_slots.size()), kNoPatch);
+        const std::size_t mask = m_slots.size() - 1;
+        for (std::uint32_t l = 0; l < global_of.size(); ++l) {
+            std::size_t h = (global_of[l] * 0x9E3779B1u) & mask;
+            while (m_slots[h] != kNoPatch) h = (h + 1) & mask;
+            m_slots[h] = l;
+        }
+    }
+    std::vector<std::uint32_t> m_slots;  // local ids, kNoPatch when empty
 };
 
 // ---------------------------------------------------------------------------------------
@@ -206,16 +281,13 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
     RowSpans<S> coarse;
     RowSpans<2 * S> fine;
     for (int j = j0; j < j1; ++j) {
-        // Clip the polygon to the row strip [j, j+1] to find the touched columns
+        // The columns the polygon touches in the row strip [j, j+1]
         const double y0 = j, y1 = j + 1.0;
-        Poly2 strip = clip_polygon(p, [&](const glm::dvec2& v) { return v.y - y0; });
-        strip = clip_polygon(strip, [&](const glm::dvec2& v) { return y1 - v.y; });
-        if (strip.size() < 3 || std::abs(signed_area2(strip)) <= 1e-14) continue;
-        double xmin = strip[0].x, xmax = strip[0].x;
-        for (const auto& v : strip) {
-            xmin = std::min(xmin, v.x);
-            xmax = std::max(xmax, v.x);
-        }
+        double xmin, xmax;
+        if (!strip_x_range(p, y0, y1, xmin, xmax)) continue;
+        // The polygon clipped to the strip, made when an undersampled pixel needs it
+        Poly2 strip;
+        bool strip_ready = false;
         const int i0 = std::max(0, static_cast<int>(std::floor(xmin)));
         const int i1 = std::min(W, static_cast<int>(std::ceil(xmax)));
 
@@ -227,6 +299,11 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
             const Mask<S> mask = coarse.mask(i, y0, sx, sy);
             std::uint32_t fine_index = kNoPatch;
             if (mask.empty()) {
+                if (!strip_ready) {
+                    strip = clip_polygon(p, [&](const glm::dvec2& v) { return v.y - y0; });
+                    strip = clip_polygon(strip, [&](const glm::dvec2& v) { return y1 - v.y; });
+                    strip_ready = true;
+                }
                 // Clip to the pixel: touching with positive area but no sample = undersampled
                 Poly2 px = clip_polygon(strip, [&](const glm::dvec2& v) { return v.x - i; });
                 px = clip_polygon(px, [&](const glm::dvec2& v) { return (i + 1.0) - v.x; });
@@ -259,7 +336,7 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
             const double depth = plane.depth(hc.proj_a(sx), hc.proj_b(face, sy));
             out.fragments.push_back(
                 {static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)), patch,
-                 static_cast<float>(depth), fine_index, mask});
+                 patch, static_cast<float>(depth), fine_index, mask});
         }
     }
 }
@@ -283,7 +360,7 @@ void rasterize_points(const Hemicube& hc, int face, const Poly2& p, const DepthP
             const double depth = plane.depth(hc.proj_a(i + 0.5), hc.proj_b(face, j + 0.5));
             out.fragments.push_back(
                 {static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)), patch,
-                 static_cast<float>(depth), kNoPatch, m});
+                 patch, static_cast<float>(depth), kNoPatch, m});
         }
     }
 }
@@ -347,8 +424,9 @@ struct Bundle {
 // transmittance left after the translucent patches it went through.
 template <typename M>
 void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
-               std::span<const double> opacity, double delta, bool translucency,
-               std::vector<double>& ff, std::vector<Bundle<M>>& bundles) {
+               std::span<const std::uint32_t> targets, std::span<const double> opacity,
+               double delta, bool translucency, std::vector<double>& ff,
+               std::vector<Bundle<M>>& bundles) {
     bundles.clear();
     bundles.push_back({M::full(), 1.0});
     const double per_sample = delta / M::kSamples;
@@ -360,7 +438,7 @@ void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
             if (in.empty()) continue;
             const double t = bundles[b].transmittance;
             // Retained by this patch: opacity · ΔF_inside (Eqn 5)
-            ff[patches[f]] += alpha * t * per_sample * in.count();
+            ff[targets[f]] += alpha * t * per_sample * in.count();
             bundles[b].mask = bundles[b].mask.and_not(masks[f]);
             if (alpha < 1.0) bundles.push_back({in, t * (1.0 - alpha)});  // Eqn 6
         }
@@ -529,6 +607,29 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
     const bool cull = !options.occlusion;
     ClosedPixels<S> closed(hc.pixel_count());
     FragmentBuffer<S> buffer;
+    LocalIds local_targets;
+    // With Targets: each new fragment's form factor goes to the target holding the point its
+    // pixel centre sees at its depth
+    const auto retarget = [&](std::uint32_t id, int face, std::size_t first) {
+        const std::uint32_t whole = options.targets->whole(id);
+        if (whole != kNoPatch) {
+            const std::uint32_t t = local_targets.id(whole, buffer.target_of);
+            for (std::size_t f = first; f < buffer.fragments.size(); ++f)
+                buffer.fragments[f].target = t;
+            return;
+        }
+        const std::size_t base = hc.face_offset(face);
+        const auto W = static_cast<std::size_t>(hc.width(face));
+        for (std::size_t f = first; f < buffer.fragments.size(); ++f) {
+            Fragment<S>& frag = buffer.fragments[f];
+            const std::size_t px = frag.pixel - base;
+            const double d = frag.depth;
+            const glm::dvec3 l = from_face(face, {hc.proj_a(double(px % W) + 0.5) * d,
+                                                  hc.proj_b(face, double(px / W) + 0.5) * d, d});
+            const glm::dvec3 x = frame.origin + l.x * frame.u + l.y * frame.v + l.z * frame.n;
+            frag.target = local_targets.id(options.targets->at(id, x), buffer.target_of);
+        }
+    };
     const auto rasterize = [&](std::uint32_t id) {
         const auto local_id = static_cast<std::uint32_t>(buffer.patch_of.size());
         buffer.patch_of.push_back(id);
@@ -548,6 +649,7 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
             else
                 rasterize_abuffer<S>(hc, face, p, plane, local_id, buffer,
                                      result.undersampled_pixels);
+            if (options.targets) retarget(id, face, first);
             if (opaque) closed.add(buffer, first);
         });
     };
@@ -596,7 +698,7 @@ void resolve_pixels(const FragmentBuffer<S>& buffer, const Hemicube& hc,
 
     std::vector<Mask<S>> masks;
     std::vector<Mask<2 * S>> fine_masks;
-    std::vector<std::uint32_t> ids;
+    std::vector<std::uint32_t> ids, targets;
     std::vector<Bundle<Mask<S>>> bundles;
     std::vector<Bundle<Mask<2 * S>>> fine_bundles;
     for (std::size_t px = 0; px < npix; ++px) {
@@ -610,16 +712,18 @@ void resolve_pixels(const FragmentBuffer<S>& buffer, const Hemicube& hc,
         });
         masks.clear();
         ids.clear();
+        targets.clear();
         bool fine = false;
         for (auto it = first; it != last; ++it) {
             const auto& f = buffer.fragments[*it];
             masks.push_back(f.mask);
             ids.push_back(f.patch);
+            targets.push_back(f.target);
             fine = fine || f.fine != kNoPatch;
         }
         const double delta = hc.delta(px);
         if (!fine) {
-            propagate<Mask<S>>(masks, ids, opacity, delta, abuffer, ff, bundles);
+            propagate<Mask<S>>(masks, ids, targets, opacity, delta, abuffer, ff, bundles);
             if (options.occlusion && masks.size() > 1) {
                 const auto t0 = std::chrono::steady_clock::now();
                 merge_occlusion<Mask<S>>(masks, ids, opacity, patch_of, pairs);
@@ -632,7 +736,8 @@ void resolve_pixels(const FragmentBuffer<S>& buffer, const Hemicube& hc,
                 const auto& f = buffer.fragments[*it];
                 fine_masks.push_back(f.fine != kNoPatch ? buffer.fine[f.fine] : upsample(f.mask));
             }
-            propagate<Mask<2 * S>>(fine_masks, ids, opacity, delta, abuffer, ff, fine_bundles);
+            propagate<Mask<2 * S>>(fine_masks, ids, targets, opacity, delta, abuffer, ff,
+                                   fine_bundles);
             if (options.occlusion && fine_masks.size() > 1) {
                 const auto t0 = std::chrono::steady_clock::now();
                 merge_occlusion<Mask<2 * S>>(fine_masks, ids, opacity, patch_of, pairs);
@@ -647,17 +752,20 @@ ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches
                        const Hemicube& hc, const ShootOptions& options) {
     ShootResult result;
     const FragmentBuffer<S> buffer = scan_convert<S>(frame, patches, hc, options, result);
-    std::vector<double> ff(buffer.patch_of.size(), 0.0);
+    // Form factors by local target id: the patch's own, or a Targets' (each visited once)
+    const std::vector<std::uint32_t>& target_of =
+        options.targets ? buffer.target_of : buffer.patch_of;
+    std::vector<double> ff(target_of.size(), 0.0);
     std::vector<std::uint64_t> pairs;
     std::chrono::steady_clock::duration occlusion_time{};
     resolve_pixels<S>(buffer, hc, options, ff, pairs, occlusion_time);
     // The patches absorb or stop at most what leaves the shooting point (ΔF sum to 1)
     ABRAD_DCHECK(std::accumulate(ff.begin(), ff.end(), 0.0) <= 1.0 + 1e-9,
                  "form factors from one point sum to more than 1");
-    // Local ids back to patch indices (each patch is visited at most once)
-    if (options.sparse) {
+    // Local ids back to patch (or target) indices
+    if (options.sparse || options.targets) {
         for (std::size_t l = 0; l < ff.size(); ++l)
-            if (ff[l] > 0.0) result.hits.push_back({buffer.patch_of[l], ff[l]});
+            if (ff[l] > 0.0) result.hits.push_back({target_of[l], ff[l]});
         std::sort(
             result.hits.begin(), result.hits.end(),
             [](const PatchFormFactor& a, const PatchFormFactor& b) { return a.patch < b.patch; });

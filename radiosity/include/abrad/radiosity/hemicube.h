@@ -39,6 +39,8 @@ inline constexpr int kFaceCount = 5;
 
 /// Face coordinates (sx, sy, d) of a local point for `face`.
 glm::dvec3 to_face(int face, const glm::dvec3& local);
+/// Local coordinates of face coordinates (the inverse of to_face).
+glm::dvec3 from_face(int face, const glm::dvec3& f);
 
 /// A hemicube of resolution R (R×R top face, four R×R/2 half faces; R even, >= 2).
 class Hemicube {

@@ -81,7 +81,7 @@ struct IndirectSolution {
     visdb::Rgb at(std::uint32_t region, const glm::dvec3& p) const;
 
     // What the solution did
-    std::size_t pieces = 0;              ///< triangles the hemicubes rasterize
+    std::size_t pieces = 0;              ///< parts of triangles in elements (triangle ∩ cell)
     std::size_t shots = 0;               ///< element shots (the lights' not counted)
     std::size_t rows_computed = 0;       ///< hemicubes placed at elements
     std::size_t rows_cached = 0;         ///< form-factor rows kept for reuse at the end

@@ -6,6 +6,7 @@
 // consistently (a vertex is on exactly one side: `dist >= 0` keeps it, `dist < 0` does not).
 // Intersection points are constructed (not exact).
 
+#include <algorithm>
 #include <array>
 #include <cassert>
 #include <cstddef>
@@ -22,6 +23,19 @@ class FixedPolygon {
   public:
     static constexpr std::size_t kCapacity = N;
 
+    // Only the vertices in use are copied, and storage is not cleared: the clippers make
+    // and copy these in the hemicube's innermost loop
+    FixedPolygon() = default;
+    FixedPolygon(const FixedPolygon& o) : m_size(o.m_size) {
+        std::copy_n(o.m_vertices.data(), m_size, m_vertices.data());
+    }
+    FixedPolygon& operator=(const FixedPolygon& o) {
+        m_size = o.m_size;
+        std::copy_n(o.m_vertices.data(), m_size, m_vertices.data());
+        return *this;
+    }
+    ~FixedPolygon() = default;
+
     std::size_t size() const { return m_size; }
     bool empty() const { return m_size == 0; }
     void clear() { m_size = 0; }
@@ -35,7 +49,8 @@ class FixedPolygon {
     const V* end() const { return m_vertices.data() + m_size; }
 
   private:
-    std::array<V, N> m_vertices{};
+    // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init): only [0, m_size) is read
+    std::array<V, N> m_vertices;
     std::size_t m_size = 0;
 };
 

@@ -24,6 +24,18 @@ enum class Visibility {
     ABuffer,  ///< fragment lists with S×S coverage masks, translucency, undersampling masks
 };
 
+/// Where the light a patch takes lands when patches are split among targets (the
+/// interreflection's elements: cells of a grid over each plane), so that a hemicube rasterizes
+/// whole triangles and its form factors still go to the cells they cover.
+class Targets {
+  public:
+    virtual ~Targets() = default;
+    /// The one target of `patch`, or kNoPatch when it spans several.
+    virtual std::uint32_t whole(std::uint32_t patch) const = 0;
+    /// The target of `patch` holding `x`, a point on it (world coordinates).
+    virtual std::uint32_t at(std::uint32_t patch, const glm::dvec3& x) const = 0;
+};
+
 struct ShootOptions {
     Visibility method = Visibility::ABuffer;
     int subpixels = 8;      ///< A-buffer mask side S: 4, 8 or 16 (fine masks are 2S)
@@ -42,6 +54,9 @@ struct ShootOptions {
     /// Form factors as `ShootResult::hits` (only the patches that got some) instead of the
     /// dense `form_factor`, so that a shot's cost does not grow with the patch count.
     bool sparse = false;
+    /// When set (with `sparse`, without occlusion lists), `hits` are by target: each
+    /// fragment's form factor goes to the target holding the point its pixel sees. Not owned.
+    const Targets* targets = nullptr;
 };
 
 /// A patch and its form factor from the shooting point.
@@ -62,7 +77,8 @@ struct ShootResult {
     /// emitted power the patch absorbs or stops, weighted by its opacity). Same size as the
     /// patch list.
     std::vector<double> form_factor;
-    /// With ShootOptions::sparse, instead of `form_factor`: the patches with F > 0, ascending.
+    /// With ShootOptions::sparse, instead of `form_factor`: the patches (or, with
+    /// ShootOptions::targets, the targets) with F > 0, ascending.
     std::vector<PatchFormFactor> hits;
     /// Occlusion pairs sorted by (receiver, occluder), without duplicates.
     std::vector<OcclusionPair> occlusion;
