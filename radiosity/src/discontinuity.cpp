@@ -103,11 +103,13 @@ void assemble(const Regions& regions, const std::vector<MeshedRegion>& meshed,
 // Exact irradiance at every vertex of `out` (from the cache where known); returns the
 // number of new evaluations.
 std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                              double reach, IrradianceCache& cache, DiscontinuityMesh& out) {
+                              double reach, IrradianceCache& cache, DiscontinuityMesh& out,
+                              ParallelProgress& progress) {
     const std::size_t n = out.mesh.positions.size();
     out.irradiance.assign(n, visdb::Rgb(0.0));
     std::vector<char> fresh(n, 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
+        progress.add(range.size());
         std::vector<const Patch*> occ;
         for (std::size_t v = range.begin(); v != range.end(); ++v) {
             const auto it = cache.find(key_of(out.vertex_region[v], out.mesh.positions[v]));
@@ -173,7 +175,8 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
 // returns how many were added.
 std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
                    const std::vector<MeshedRegion>& meshed, const DiscontinuityMesh& current,
-                   const BakeOptions& options, IrradianceCache& cache, std::uint64_t& evaluations) {
+                   const BakeOptions& options, IrradianceCache& cache, std::uint64_t& evaluations,
+                   ParallelProgress& progress) {
     double h_max = 0.0;
     for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
     const double floor = 1e-3 * h_max;
@@ -186,6 +189,7 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
     // its midpoint's bits, so later rounds look it up instead of re-evaluating
     std::vector<std::vector<std::pair<PointKey, visdb::Rgb>>> evaluated(meshed.size());
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
+        progress.add(meshed[r].triangles.size());
         if (regions.emitter[r]) return;
         refine_region(g, bvh, regions, meshed[r], static_cast<std::uint32_t>(r),
                       current.irradiance.data() + region_start[r], floor, options, cache, split[r],
@@ -221,8 +225,11 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     IrradianceCache cache;
     DiscontinuityMesh out;
     for (int round = 0;; ++round) {
-        if (progress) progress("mesh", std::size_t(round), std::size_t(options.refine_rounds) + 1);
+        // Each step reports its own work: regions meshed, vertices evaluated, triangles refined
+        const std::string of_rounds = " (round " + std::to_string(round + 1) + " of at most " +
+                                      std::to_string(options.refine_rounds + 1) + ")";
         const auto tm = Clock::now();
+        if (progress) progress("mesh: regions" + of_rounds, 0, regions.planar.size());
         DmStats mesher;
         const std::vector<MeshedRegion> meshed = mesh_regions(regions.planar, dm_options, &mesher);
         st.seconds_mesh += seconds_since(tm);
@@ -233,10 +240,17 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
         st.conformity_points = mesher.conformity_points;
         ++st.rounds;
         assemble(regions, meshed, out);
-        st.exact_evaluations += evaluate_vertices(g, bvh, regions, options.reach, cache, out);
+        {
+            ParallelProgress vertices(progress, "mesh: exact irradiance at vertices" + of_rounds,
+                                      out.mesh.positions.size());
+            st.exact_evaluations +=
+                evaluate_vertices(g, bvh, regions, options.reach, cache, out, vertices);
+        }
         if (round >= options.refine_rounds) break;
+        ParallelProgress triangles(progress, "mesh: refinement, triangles" + of_rounds,
+                                   out.mesh.triangles.size());
         const std::size_t added =
-            refine(g, bvh, regions, meshed, out, options, cache, st.exact_evaluations);
+            refine(g, bvh, regions, meshed, out, options, cache, st.exact_evaluations, triangles);
         st.refine_points += added;
         if (added == 0) break;
     }

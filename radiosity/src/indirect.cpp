@@ -14,6 +14,7 @@
 #include <memory>
 #include <mutex>
 #include <numeric>
+#include <optional>
 #include <string>
 
 #include "abrad/radiosity/hemicube.h"
@@ -207,12 +208,12 @@ class Solver {
   private:
     double seconds() const { return std::chrono::duration<double>(Clock::now() - m_start).count(); }
 
-    // Progress labels carry the unshot fraction
+    // Progress labels carry the unshot fraction (and the target)
     void progress(std::string_view stage, std::size_t done, std::size_t total, double unshot) {
         if (!m_progress) return;
-        char text[96];
-        std::snprintf(text, sizeof text, "%.*s (unshot %.3g%%)", int(stage.size()), stage.data(),
-                      100.0 * unshot);
+        char text[128];
+        std::snprintf(text, sizeof text, "%.*s (unshot %.3g%%, target %.3g%%)", int(stage.size()),
+                      stage.data(), 100.0 * unshot, 100.0 * m_options.converge);
         m_label = text;
         m_progress(m_label, done, total);
     }
@@ -383,7 +384,11 @@ class Solver {
         std::vector<std::uint32_t> todo;
         for (const std::uint32_t e : wanted)
             if (!m_rows[e].known) todo.push_back(e);
+        // A large batch reports its own hemicubes (a round can take minutes)
+        std::optional<ParallelProgress> batch;
+        if (todo.size() >= 64) batch.emplace(m_progress, "interreflection: hemicubes", todo.size());
         tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t k) {
+            if (batch) batch->add(1);
             const auto& el = m_sol.elements[todo[k]];
             const ShooterFrame frame = ShooterFrame::at(el.centroid, m_region_normal[el.region]);
             const ShootResult shot = shoot(frame, m_in.patches, m_hemicube, m_shoot);
@@ -460,6 +465,14 @@ class Solver {
     void run_southwell(double unshot) {
         const double emitted = m_sol.energy.emitted;
         const double target = m_options.converge * emitted;
+        // Progress in thousandths of the way from the first unshot fraction to the target on a
+        // log scale (Southwell's unshot power falls about geometrically with the shots)
+        const double start = unshot;
+        const auto permille = [&](double u) -> std::size_t {
+            if (!(start > target) || !(u > 0.0)) return 1000;
+            const double f = std::log(start / u) / std::log(start / target);
+            return static_cast<std::size_t>(std::clamp(f, 0.0, 1.0) * 1000.0);
+        };
         std::vector<std::uint32_t> order(m_ne);
         while (unshot > target && m_sol.shots < m_options.max_shots) {
             std::iota(order.begin(), order.end(), 0u);
@@ -481,7 +494,8 @@ class Solver {
             release_rows(part);
             unshot = unshot_power();
             record(unshot);
-            progress("interreflection: shots", m_sol.shots, 0, unshot / emitted);
+            progress("interreflection: converging, " + std::to_string(m_sol.shots) + " shots",
+                     permille(unshot), 1000, unshot / emitted);
         }
     }
 

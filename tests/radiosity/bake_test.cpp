@@ -1,9 +1,12 @@
 #include "abrad/radiosity/bake.h"
 
 #include <gtest/gtest.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <cmath>
 #include <glm/geometric.hpp>
 #include <numbers>
 #include <string>
@@ -116,6 +119,34 @@ TEST(Bake, RejectsSceneWithoutLightsAndBadOptions) {
 
 // A setting the chosen method or mode does not use is an error naming it (pbrt-v4's
 // ReportUnused); the same setting where it is used, or a setting always used, is fine.
+// Workers report through ParallelProgress: never two calls at once, the first 0 of the total,
+// the last the whole total, and done never above it
+TEST(Progress, ParallelWorkReportsSeriallyFromZeroToTheTotal) {
+    std::atomic<int> inside{0};
+    std::atomic<bool> overlapped{false};
+    std::vector<std::pair<std::size_t, std::size_t>> calls;
+    const ProgressFn fn = [&](std::string_view stage, std::size_t done, std::size_t total) {
+        if (inside.fetch_add(1) != 0) overlapped = true;
+        EXPECT_EQ(stage, "work");
+        calls.emplace_back(done, total);
+        inside.fetch_sub(1);
+    };
+    constexpr std::size_t kItems = 20000;
+    {
+        ParallelProgress progress(fn, "work", kItems);
+        tbb::parallel_for(std::size_t{0}, kItems, [&](std::size_t) {
+            volatile double x = 0.0;
+            for (int k = 0; k < 2000; ++k) x = x + std::sqrt(double(k));
+            progress.add(1);
+        });
+    }
+    EXPECT_FALSE(overlapped);
+    ASSERT_GE(calls.size(), 2u);
+    EXPECT_EQ(calls.front(), std::make_pair(std::size_t{0}, kItems));
+    EXPECT_EQ(calls.back(), std::make_pair(kItems, kItems));
+    for (const auto& [done, total] : calls) EXPECT_LE(done, total);
+}
+
 TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     const auto message_of = [](const BakeOptions& o, const std::string& given) {
         try {
@@ -125,7 +156,10 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
         }
         return std::string();
     };
-    BakeOptions o;  // direct light, A-buffer, DM with 4 refinement rounds
+    BakeOptions o;  // converged interreflection, A-buffer, DM with 4 refinement rounds
+    EXPECT_EQ(message_of(o, "--converge"), "");
+    EXPECT_EQ(message_of(o, "--element-size"), "");
+    o.bounces = 0;  // direct light only
     EXPECT_NE(message_of(o, "--converge").find("--converge"), std::string::npos);
     EXPECT_NE(message_of(o, "--converge").find("--bounces converge"), std::string::npos);
     EXPECT_NE(message_of(o, "--overrelax"), "");

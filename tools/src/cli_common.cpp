@@ -61,9 +61,10 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
                    "A-buffer mask side: 4, 8 or 16 (8 = 8x8 = one uint64)")
         ->capture_default_str();
     app.add_option("--bounces", a.bounces,
-                   "Interreflection: 0 (direct light only, the paper's "
-                   "setting), converge (shoot from reflecting surfaces until "
-                   "--converge) or a number of bounces")
+                   "Interreflection: converge (shoot from reflecting surfaces "
+                   "until --converge, with the ambient term: the full solution), "
+                   "0 (direct light only, the paper's setting) or a number of "
+                   "bounces")
         ->capture_default_str();
     app.add_option("--converge", a.converge,
                    "Stop interreflection when the unshot power is below "

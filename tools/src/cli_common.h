@@ -69,7 +69,7 @@ struct BakeArgs {
     std::string method = "abuffer";
     int resolution = 50;
     int subpixels = 8;
-    std::string bounces = "0";
+    std::string bounces = "converge";
     double converge = 0.005;
     double element_size = 0.5;
     double overrelax = 1.0;

@@ -33,47 +33,67 @@ State& state() {
     return s;
 }
 
-// Progress on stderr: a rewritten line on a terminal; otherwise a line per 10% (or, when the
-// total is open, as the interreflection's shots are, one every two seconds).
+// Progress on stderr: each step's work done out of work to do, the time since the bake
+// started and, once some is done, the step's ETA (from its rate so far). On a terminal a
+// rewritten line; otherwise (a log file) a line every 2 seconds of long work, and the end of
+// every step that took 2 seconds or more.
 class Progress {
   public:
-    Progress() : m_tty(isatty(STDERR_FILENO) != 0), m_start(std::chrono::steady_clock::now()) {}
+    Progress() : m_tty(isatty(STDERR_FILENO) != 0) {}
 
     void operator()(std::string_view stage, std::size_t done, std::size_t total) {
-        const double s = seconds();
-        const std::string_view what = stage.starts_with("shoot")  ? "light triangles"
-                                      : stage.starts_with("mesh") ? "rounds"
-                                                                  : "";
-        char line[256];
-        if (total) {
-            const int percent = static_cast<int>(100 * done / total);
-            std::snprintf(line, sizeof line, "%.*s: %zu/%zu %.*s (%d%%) %.1f s", int(stage.size()),
-                          stage.data(), done, total, int(what.size()), what.data(), percent, s);
-            if (!m_tty && percent / 10 == m_last_decile && done != total && stage == m_stage)
-                return;
-            m_last_decile = percent / 10;
-        } else {
-            std::snprintf(line, sizeof line, "%.*s: %zu %.1f s", int(stage.size()), stage.data(),
-                          done, s);
-            if (!m_tty && s - m_last_line < 2.0 && done != 0) return;
+        const auto now = std::chrono::steady_clock::now();
+        const bool new_step = stage != m_stage;
+        if (new_step) {
+            m_stage = std::string(stage);
+            m_step_start = now;
         }
-        m_stage = std::string(stage);
-        m_last_line = s;
+        const bool ends = total && done >= total;
+        const double since_line = seconds(m_last_line, now);
+        if (m_tty ? !new_step && !ends && since_line < 0.2
+                  : since_line < 2.0 && !(ends && seconds(m_step_start, now) >= 2.0))
+            return;
+        m_last_line = now;
+        char line[320];
+        const double elapsed = seconds(m_start, now);
+        if (total) {
+            const int percent = static_cast<int>(100 * std::min(done, total) / total);
+            char eta[48] = "";
+            const double step = seconds(m_step_start, now);
+            if (done > 0 && !ends && step > 1.0)
+                std::snprintf(eta, sizeof eta, ", ETA %s",
+                              duration(step * double(total - done) / double(done)).c_str());
+            std::snprintf(line, sizeof line, "%s: %zu/%zu (%d%%) %.1f s%s", m_stage.c_str(), done,
+                          total, percent, elapsed, eta);
+        } else {
+            std::snprintf(line, sizeof line, "%s: %zu %.1f s", m_stage.c_str(), done, elapsed);
+        }
         if (m_tty)
-            std::fprintf(stderr, "\r%-100s%s", line, total && done == total ? "\n" : "");
+            std::fprintf(stderr, "\r%-110s%s", line, ends ? "\n" : "");
         else
             std::fprintf(stderr, "%s\n", line);
     }
 
   private:
-    double seconds() const {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+    static double seconds(std::chrono::steady_clock::time_point from,
+                          std::chrono::steady_clock::time_point to) {
+        return std::chrono::duration<double>(to - from).count();
+    }
+    // "42 s", "3 min 20 s", "2 h 05 min"
+    static std::string duration(double s) {
+        char text[32];
+        if (s < 60.0)
+            std::snprintf(text, sizeof text, "%.0f s", s);
+        else if (s < 3600.0)
+            std::snprintf(text, sizeof text, "%d min %02d s", int(s / 60.0), int(s) % 60);
+        else
+            std::snprintf(text, sizeof text, "%d h %02d min", int(s / 3600.0), int(s / 60.0) % 60);
+        return text;
     }
     bool m_tty;
-    int m_last_decile = -1;
-    double m_last_line = -1e9;
     std::string m_stage;
-    std::chrono::steady_clock::time_point m_start;
+    std::chrono::steady_clock::time_point m_start = std::chrono::steady_clock::now();
+    std::chrono::steady_clock::time_point m_step_start = m_start, m_last_line = m_start;
 };
 
 // Irradiance range over the vertices of receivers (surfaces that do not emit).

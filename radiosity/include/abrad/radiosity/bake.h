@@ -54,10 +54,10 @@ struct BakeOptions {
     Visibility method = Visibility::ABuffer;
     int resolution = 50;  ///< hemicube resolution R (even)
     int subpixels = 8;    ///< A-buffer mask side
-    /// Interreflection: 0 = direct light only (the paper's setting, the default), -1 = shoot
-    /// from reflecting elements until the unshot fraction is below `converge`, N = N bounces
-    /// (Jacobi sweeps).
-    int bounces = 0;
+    /// Interreflection: -1 = shoot from reflecting elements until the unshot fraction is below
+    /// `converge` (the default: the full solution), 0 = direct light only (the paper's
+    /// setting), N = N bounces (Jacobi sweeps).
+    int bounces = -1;
     double converge = 0.005;      ///< unshot power / emitted power at which to stop
     double element_size = 0.5;    ///< metres: element grid of the interreflection solution
     double overrelaxation = 1.0;  ///< Southwell ω in [1, 2) when converging
