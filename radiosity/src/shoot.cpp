@@ -242,7 +242,7 @@ class LocalIds {
     std::uint32_t id(std::uint32_t global, std::vector<std::uint32_t>& global_of) {
         if (2 * (global_of.size() + 1) > m_slots.size()) grow(global_of);
         const std::size_t mask = m_slots.size() - 1;
-        for (std::size_t h = (global * 0x9E3779B1u) & mask;; h = (h + 1) & mask) {
+        for (std::size_t h = hash(global) & mask;; h = (h + 1) & mask) {
             std::uint32_t& slot = m_slots[h];
             if (slot == kNoPatch) {
                 slot = static_cast<std::uint32_t>(global_of.size());
@@ -258,11 +258,12 @@ class LocalIds {
         m_slots.assign(std::max<std::size_t>(64, 2 * m_slots.size()), kNoPatch);
         const std::size_t mask = m_slots.size() - 1;
         for (std::uint32_t l = 0; l < global_of.size(); ++l) {
-            std::size_t h = (global_of[l] * 0x9E3779B1u) & mask;
+            std::size_t h = hash(global_of[l]) & mask;
             while (m_slots[h] != kNoPatch) h = (h + 1) & mask;
             m_slots[h] = l;
         }
     }
+    static std::size_t hash(std::uint32_t x) { return std::size_t{x} * 0x9E3779B1u; }
     std::vector<std::uint32_t> m_slots;  // local ids, kNoPatch when empty
 };
 
@@ -622,10 +623,10 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
         const auto W = static_cast<std::size_t>(hc.width(face));
         for (std::size_t f = first; f < buffer.fragments.size(); ++f) {
             Fragment<S>& frag = buffer.fragments[f];
-            const std::size_t px = frag.pixel - base;
+            const std::size_t px = frag.pixel - base, row = px / W, column = px % W;
             const double d = frag.depth;
-            const glm::dvec3 l = from_face(face, {hc.proj_a(double(px % W) + 0.5) * d,
-                                                  hc.proj_b(face, double(px / W) + 0.5) * d, d});
+            const glm::dvec3 l = from_face(face, {hc.proj_a(double(column) + 0.5) * d,
+                                                  hc.proj_b(face, double(row) + 0.5) * d, d});
             const glm::dvec3 x = frame.origin + l.x * frame.u + l.y * frame.v + l.z * frame.n;
             frag.target = local_targets.id(options.targets->at(id, x), buffer.target_of);
         }
