@@ -38,6 +38,7 @@ std::vector<std::pair<std::string, std::string>> parameters_of(const BakeOptions
             p.emplace_back("ambient", o.ambient ? "on" : "off");
         }
         p.emplace_back("element_size", std::to_string(o.element_size));
+        p.emplace_back("element_resolution", std::to_string(o.element_resolution));
     }
     if (o.dm) {
         p.emplace_back("dm_angle", std::to_string(o.dm_min_angle));
@@ -75,8 +76,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     // Discontinuity mesh: the receivers re-meshed along the shadow segments and refined
     std::optional<DiscontinuityMesh> dm;
     if (options.dm)
-        dm =
-            mesh_discontinuities(geometry, bvh, regions, shots.segments, options, &stats, progress);
+        dm = mesh_discontinuities(geometry, bvh, regions, shots, options, &stats, progress);
 
     // Interreflection on the imported mesh's elements
     std::optional<IndirectSolution> indirect;
@@ -125,6 +125,8 @@ constexpr UsedWhen kUsedWhen[] = {
     {"--converge", [](const BakeOptions& o) { return o.bounces < 0; }, "--bounces converge"},
     {"--overrelax", [](const BakeOptions& o) { return o.bounces < 0; }, "--bounces converge"},
     {"--ambient", [](const BakeOptions& o) { return o.bounces < 0; }, "--bounces converge"},
+    {"--element-resolution", [](const BakeOptions& o) { return o.bounces != 0; },
+     "--bounces converge or N > 0"},
     {"--element-size", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},
     {"--convergence-csv", [](const BakeOptions& o) { return o.bounces != 0; },
@@ -146,6 +148,9 @@ void validate(const BakeOptions& o) {
     if (o.resolution < 2 || o.resolution > 4096 || o.resolution % 2 != 0)
         throw InputError("--resolution must be an even number in [2, 4096], got " +
                          std::to_string(o.resolution));
+    if (o.element_resolution < 2 || o.element_resolution > 4096 || o.element_resolution % 2 != 0)
+        throw InputError("--element-resolution must be an even number in [2, 4096], got " +
+                         std::to_string(o.element_resolution));
     if (o.method == Visibility::ABuffer && o.subpixels != 4 && o.subpixels != 8 &&
         o.subpixels != 16)
         throw InputError("--subpixels must be 4, 8 or 16, got " + std::to_string(o.subpixels));

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <numeric>
 #include <unordered_map>
 #include <unordered_set>
@@ -100,11 +101,53 @@ void assemble(const Regions& regions, const std::vector<MeshedRegion>& meshed,
     }
 }
 
+// Per region, the lights that reach some triangle of it (ascending, as g.lights). Coplanar
+// regions whose boxes overlap (a rug on a floor) pool their lights: the hemicube's depth ties
+// give such coincident faces to one of them, while both are lit.
+using RegionLights = std::vector<std::vector<std::uint32_t>>;
+RegionLights region_lights(const Regions& regions,
+                           const std::vector<std::vector<std::uint32_t>>& lights_of_triangle) {
+    const std::size_t nr = regions.planar.size();
+    RegionLights lights(nr);
+    for (std::size_t t = 0; t < lights_of_triangle.size(); ++t) {
+        auto& list = lights[regions.of_triangle[t]];
+        list.insert(list.end(), lights_of_triangle[t].begin(), lights_of_triangle[t].end());
+    }
+    // Regions by plane (normal and offset to 1e-6), with their boxes
+    std::map<std::array<std::int64_t, 4>, std::vector<std::uint32_t>> by_plane;
+    std::vector<Box> box(nr);
+    for (std::size_t r = 0; r < nr; ++r) {
+        const PlanarRegion& region = regions.planar[r];
+        if (region.positions.empty()) continue;
+        for (const glm::dvec3& p : region.positions) box[r].grow(p);
+        box[r].inflate(1e-6);
+        const glm::dvec3 n = region.normal;
+        const double d = glm::dot(n, region.positions[0]);
+        const auto q = [](double x) { return static_cast<std::int64_t>(std::llround(x * 1e6)); };
+        by_plane[{q(n.x), q(n.y), q(n.z), q(d)}].push_back(static_cast<std::uint32_t>(r));
+    }
+    RegionLights pooled = lights;
+    for (const auto& [plane, members] : by_plane)
+        for (std::size_t a = 0; a < members.size(); ++a)
+            for (std::size_t b = a + 1; b < members.size(); ++b)
+                if (box[members[a]].overlaps(box[members[b]])) {
+                    const auto& la = lights[members[a]];
+                    const auto& lb = lights[members[b]];
+                    pooled[members[a]].insert(pooled[members[a]].end(), lb.begin(), lb.end());
+                    pooled[members[b]].insert(pooled[members[b]].end(), la.begin(), la.end());
+                }
+    for (auto& list : pooled) {
+        std::sort(list.begin(), list.end());
+        list.erase(std::unique(list.begin(), list.end()), list.end());
+    }
+    return pooled;
+}
+
 // Exact irradiance at every vertex of `out` (from the cache where known); returns the
 // number of new evaluations.
 std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                              double reach, IrradianceCache& cache, DiscontinuityMesh& out,
-                              ParallelProgress& progress) {
+                              const RegionLights& lights, double reach, IrradianceCache& cache,
+                              DiscontinuityMesh& out, ParallelProgress& progress) {
     const std::size_t n = out.mesh.positions.size();
     out.irradiance.assign(n, visdb::Rgb(0.0));
     std::vector<char> fresh(n, 0);
@@ -117,9 +160,9 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
                 out.irradiance[v] = it->second;
                 continue;
             }
-            out.irradiance[v] =
-                exact_irradiance(g.patches, g.emittance, g.lights, bvh, out.mesh.positions[v],
-                                 regions.planar[out.vertex_region[v]].normal, occ, reach);
+            out.irradiance[v] = exact_irradiance(
+                g.patches, g.emittance, lights[out.vertex_region[v]], bvh, out.mesh.positions[v],
+                regions.planar[out.vertex_region[v]].normal, occ, reach);
             fresh[v] = 1;
         }
     });
@@ -135,9 +178,9 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
 // The points that split region r's edges whose midpoint's exact irradiance departs from the
 // linear interpolation of their ends; midpoints evaluated here go to `evaluated`.
 void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                   const MeshedRegion& m, std::uint32_t r, const visdb::Rgb* h, double floor,
-                   const BakeOptions& options, const IrradianceCache& cache,
-                   std::vector<glm::dvec3>& split,
+                   const RegionLights& lights, const MeshedRegion& m, std::uint32_t r,
+                   const visdb::Rgb* h, double floor, const BakeOptions& options,
+                   const IrradianceCache& cache, std::vector<glm::dvec3>& split,
                    std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
     for (const glm::u32vec3& t : m.triangles)
@@ -160,7 +203,7 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
         if (hit != cache.end()) {
             at_mid = hit->second;
         } else {
-            at_mid = exact_irradiance(g.patches, g.emittance, g.lights, bvh, mid, rn, occ,
+            at_mid = exact_irradiance(g.patches, g.emittance, lights[r], bvh, mid, rn, occ,
                                       options.reach);
             evaluated.emplace_back(key, at_mid);
         }
@@ -174,9 +217,9 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
 // One refinement round over every non-emitting region: adds the split points to the regions;
 // returns how many were added.
 std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
-                   const std::vector<MeshedRegion>& meshed, const DiscontinuityMesh& current,
-                   const BakeOptions& options, IrradianceCache& cache, std::uint64_t& evaluations,
-                   ParallelProgress& progress) {
+                   const RegionLights& lights, const std::vector<MeshedRegion>& meshed,
+                   const DiscontinuityMesh& current, const BakeOptions& options,
+                   IrradianceCache& cache, std::uint64_t& evaluations, ParallelProgress& progress) {
     double h_max = 0.0;
     for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
     const double floor = 1e-3 * h_max;
@@ -191,7 +234,7 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
         progress.add(meshed[r].triangles.size());
         if (regions.emitter[r]) return;
-        refine_region(g, bvh, regions, meshed[r], static_cast<std::uint32_t>(r),
+        refine_region(g, bvh, regions, lights, meshed[r], static_cast<std::uint32_t>(r),
                       current.irradiance.data() + region_start[r], floor, options, cache, split[r],
                       evaluated[r]);
     });
@@ -212,9 +255,10 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
 }  // namespace
 
 DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
-                                       std::vector<std::vector<ShadowSegment>>& segments,
-                                       const BakeOptions& options, visdb::BakeStats* stats,
-                                       const ProgressFn& progress) {
+                                       LightShots& shots, const BakeOptions& options,
+                                       visdb::BakeStats* stats, const ProgressFn& progress) {
+    std::vector<std::vector<ShadowSegment>>& segments = shots.segments;
+    const RegionLights lights = region_lights(regions, shots.lights_of_triangle);
     const auto t_dm = Clock::now();
     visdb::DiscontinuityStats st;
     if (stats && stats->dm) st = *stats->dm;  // the shadow edge counters of shoot_lights
@@ -244,13 +288,13 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
             ParallelProgress vertices(progress, "mesh: exact irradiance at vertices" + of_rounds,
                                       out.mesh.positions.size());
             st.exact_evaluations +=
-                evaluate_vertices(g, bvh, regions, options.reach, cache, out, vertices);
+                evaluate_vertices(g, bvh, regions, lights, options.reach, cache, out, vertices);
         }
         if (round >= options.refine_rounds) break;
         ParallelProgress triangles(progress, "mesh: refinement, triangles" + of_rounds,
                                    out.mesh.triangles.size());
-        const std::size_t added =
-            refine(g, bvh, regions, meshed, out, options, cache, st.exact_evaluations, triangles);
+        const std::size_t added = refine(g, bvh, regions, lights, meshed, out, options, cache,
+                                         st.exact_evaluations, triangles);
         st.refine_points += added;
         if (added == 0) break;
     }

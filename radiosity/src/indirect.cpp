@@ -113,6 +113,9 @@ void validate(const IndirectOptions& o) {
     if (!(o.element_size > 0.0 && std::isfinite(o.element_size)))
         throw InputError("--element-size must be > 0 metres, got " +
                          std::to_string(o.element_size));
+    if (o.row_resolution < 2 || o.row_resolution > 4096 || o.row_resolution % 2 != 0)
+        throw InputError("--element-resolution must be an even number in [2, 4096], got " +
+                         std::to_string(o.row_resolution));
     if (!(o.overrelaxation >= 1.0 && o.overrelaxation < 2.0))
         throw InputError("--overrelax must be in [1, 2), got " + std::to_string(o.overrelaxation));
 }
@@ -170,6 +173,7 @@ class Solver {
           m_options(options),
           m_progress(progress),
           m_hemicube(options.resolution),
+          m_row_hemicube(options.row_resolution),
           m_shoot{.method = options.method,
                   .subpixels = options.subpixels,
                   .occlusion = false,
@@ -391,7 +395,7 @@ class Solver {
             if (batch) batch->add(1);
             const auto& el = m_sol.elements[todo[k]];
             const ShooterFrame frame = ShooterFrame::at(el.centroid, m_region_normal[el.region]);
-            const ShootResult shot = shoot(frame, m_in.patches, m_hemicube, m_shoot);
+            const ShootResult shot = shoot(frame, m_in.patches, m_row_hemicube, m_shoot);
             fold_row(shot.hits, m_sol.elements, frame.origin, m_region_normal, m_rows[todo[k]]);
         });
         m_sol.rows_computed += todo.size();
@@ -533,7 +537,7 @@ class Solver {
     const IndirectOptions& m_options;
     const ProgressFn& m_progress;
     const Clock::time_point m_start = Clock::now();
-    const Hemicube m_hemicube;
+    const Hemicube m_hemicube, m_row_hemicube;
     ShootOptions m_shoot;
     const std::vector<glm::dvec3> m_region_normal;
     std::unique_ptr<Bvh> m_bvh;

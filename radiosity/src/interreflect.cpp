@@ -30,6 +30,7 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
                              .ambient = options.ambient,
                              .method = options.method,
                              .resolution = options.resolution,
+                             .row_resolution = options.element_resolution,
                              .subpixels = options.subpixels};
     IndirectSolution s = solve_indirect(input, io, progress);
     if (options.convergence) *options.convergence = s.curve;

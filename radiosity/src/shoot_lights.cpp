@@ -218,6 +218,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& h
     shots.triangle_irradiance.assign(nt, visdb::Rgb(0.0));
     shots.vertex_irradiance.assign(nv, visdb::Rgb(0.0));
     shots.segments.resize(options.dm ? nt : 0);
+    shots.lights_of_triangle.resize(options.dm ? nt : 0);
     visdb::ShootStats shoot_stats;
     visdb::ExactShadeStats exact_stats;
     visdb::ShadowEdgeStats shadow_stats;
@@ -235,6 +236,9 @@ LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& h
             for (const std::uint32_t v : one.near_vertices)
                 shots.vertex_irradiance[v] += one.vertex[v];
         for (const auto& [j, seg] : one.segments) shots.segments[j].push_back(seg);
+        if (options.dm)
+            for (const std::uint32_t j : one.near)
+                if (visdb::any_positive(one.triangle[j])) shots.lights_of_triangle[j].push_back(l);
         shoot_stats += one.shoot;
         exact_stats += one.exact;
         shadow_stats += one.shadow;

@@ -59,6 +59,10 @@ struct LightShots {
     std::vector<visdb::Rgb> triangle_irradiance;       ///< patch irradiance per triangle (hemicube)
     std::vector<visdb::Rgb> vertex_irradiance;         ///< exact, per vertex (exact shading, no DM)
     std::vector<std::vector<ShadowSegment>> segments;  ///< per triangle (DM only)
+    /// Per triangle, the lights whose hemicube gave it some light, ascending (DM only): the
+    /// exact irradiance on a region asks only these lights (a light that reaches no triangle of
+    /// a region through any hemicube sample adds nothing there).
+    std::vector<std::vector<std::uint32_t>> lights_of_triangle;
 };
 
 /// The discontinuity mesh with the exact direct irradiance at its vertices.
@@ -88,10 +92,11 @@ LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& h
 
 /// Meshes every planar region along its shadow segments and refines it; consumes `segments`.
 /// Fills stats->dm (all but the shadow edge counters, which shoot_lights filled).
+/// The exact irradiance on a region asks only the lights that reach some triangle of it
+/// (LightShots::lights_of_triangle), so a vertex's cost follows the lights that see its room.
 DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
-                                       std::vector<std::vector<ShadowSegment>>& segments,
-                                       const BakeOptions& options, visdb::BakeStats* stats,
-                                       const ProgressFn& progress);
+                                       LightShots& shots, const BakeOptions& options,
+                                       visdb::BakeStats* stats, const ProgressFn& progress);
 
 /// Interreflection on `g`'s triangles clustered per planar region (options.bounces != 0);
 /// fills stats->indirect but the per-vertex mean (shade_vertices adds it).

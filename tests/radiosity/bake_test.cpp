@@ -164,6 +164,7 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     EXPECT_NE(message_of(o, "--converge").find("--bounces converge"), std::string::npos);
     EXPECT_NE(message_of(o, "--overrelax"), "");
     EXPECT_NE(message_of(o, "--element-size"), "");
+    EXPECT_NE(message_of(o, "--element-resolution"), "");
     EXPECT_EQ(message_of(o, "--subpixels"), "");
     EXPECT_EQ(message_of(o, "--lights"), "");
     EXPECT_EQ(message_of(o, "--refine-tolerance"), "");

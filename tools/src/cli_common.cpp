@@ -70,6 +70,10 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
                    "Stop interreflection when the unshot power is below "
                    "this fraction of the emitted power")
         ->capture_default_str();
+    app.add_option("--element-resolution", a.element_resolution,
+                   "Hemicube resolution of the interreflection's element rows (even, 2..4096; "
+                   "the lights' shots use --resolution)")
+        ->capture_default_str();
     app.add_option("--element-size", a.element_size,
                    "Side of the interreflection elements, metres "
                    "(each planar region is cut into such cells)")
@@ -143,6 +147,7 @@ radiosity::BakeOptions to_options(const BakeArgs& a, const CLI::App& app) {
     }
     o.converge = a.converge;
     o.element_size = a.element_size;
+    o.element_resolution = a.element_resolution;
     o.overrelaxation = a.overrelax;
     o.ambient = a.ambient == "on";
     o.shading = a.shading == "patch" ? radiosity::Shading::Patch : radiosity::Shading::Exact;

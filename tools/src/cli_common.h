@@ -72,6 +72,7 @@ struct BakeArgs {
     std::string bounces = "converge";
     double converge = 0.005;
     double element_size = 0.5;
+    int element_resolution = 32;
     double overrelax = 1.0;
     std::string ambient = "on";
     std::string convergence_csv;

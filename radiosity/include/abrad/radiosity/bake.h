@@ -58,8 +58,11 @@ struct BakeOptions {
     /// `converge` (the default: the full solution), 0 = direct light only (the paper's
     /// setting), N = N bounces (Jacobi sweeps).
     int bounces = -1;
-    double converge = 0.005;      ///< unshot power / emitted power at which to stop
-    double element_size = 0.5;    ///< metres: element grid of the interreflection solution
+    double converge = 0.005;    ///< unshot power / emitted power at which to stop
+    double element_size = 0.5;  ///< metres: element grid of the interreflection solution
+    /// Hemicube resolution of the element rows (the lights' shots onto the elements use
+    /// `resolution`): element-to-element form factors are sums over many pixels.
+    int element_resolution = 32;
     double overrelaxation = 1.0;  ///< Southwell ω in [1, 2) when converging
     bool ambient = true;          ///< spread what is left unshot as the ambient term
     /// When set, receives the convergence curve (unshot fraction against shots and time).

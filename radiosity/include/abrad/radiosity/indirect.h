@@ -51,7 +51,8 @@ struct IndirectOptions {
     std::size_t max_shots = 2'000'000;  ///< a safety bound on shots when converging
     std::size_t row_cache_bytes = std::size_t{2} << 30;  ///< form-factor rows kept for reuse
     Visibility method = Visibility::ABuffer;
-    int resolution = 50;
+    int resolution = 50;      ///< hemicube of the lights' shots onto the elements
+    int row_resolution = 50;  ///< hemicube of the elements' rows
     int subpixels = 8;
 };
 
