@@ -71,7 +71,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     const Hemicube hemicube(options.resolution);  // the lights' shots, and patch shading
 
     // Shoot the lights: patch irradiance, exact vertex irradiance or shadow segments
-    LightShots shots = shoot_lights(geometry, bvh, hemicube, options, &stats, progress);
+    LightShots shots = shoot_lights(geometry, regions, bvh, hemicube, options, &stats, progress);
 
     // Discontinuity mesh: the receivers re-meshed along the shadow segments and refined
     std::optional<DiscontinuityMesh> dm;

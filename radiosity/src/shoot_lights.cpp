@@ -128,10 +128,15 @@ std::size_t edge_occluders(const BakeGeometry& g, const Bvh& bvh, std::uint32_t 
 
 // Shadow edges (Algorithm 3) of light l on every receiver in front of the light that faces
 // it.
-void project_shadow_edges(const BakeGeometry& g, const Bvh& bvh, std::uint32_t l,
-                          const ShootResult& shot, const std::vector<std::uint32_t>& receivers,
-                          LightModel model, OneLight& out) {
+void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
+                          std::uint32_t l, const ShootResult& shot,
+                          const std::vector<std::uint32_t>& receivers, LightModel model,
+                          OneLight& out) {
     const Patch& light = g.patches[l];
+    // The regions the light's hemicube reached: the others get no light, so no shadow edge
+    std::vector<char> reached(regions.planar.size(), 0);
+    for (const std::uint32_t j : receivers)
+        if (shot.form_factor[j] > 0.0) reached[regions.of_triangle[j]] = 1;
     const glm::dvec3 normal = unit_normal(light);
     std::mutex accumulate;
     tbb::parallel_for(
@@ -143,7 +148,9 @@ void project_shadow_edges(const BakeGeometry& g, const Bvh& bvh, std::uint32_t l
             visdb::ShadowEdgeStats counts;
             for (std::size_t ji = range.begin(); ji != range.end(); ++ji) {
                 const std::uint32_t j = receivers[ji];
-                if (j == l || visdb::any_positive(g.emittance[j])) continue;
+                if (j == l || visdb::any_positive(g.emittance[j]) ||
+                    !reached[regions.of_triangle[j]])
+                    continue;
                 const Patch& r = g.patches[j];
                 const glm::dvec3 rn = unit_normal(r);
                 bool in_front = false, facing = false;
@@ -172,8 +179,8 @@ void project_shadow_edges(const BakeGeometry& g, const Bvh& bvh, std::uint32_t l
 }
 
 // Shoots from light l and computes what the bake asks of it.
-OneLight shoot_one(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicube, std::uint32_t l,
-                   const BakeOptions& options) {
+OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
+                   const Hemicube& hemicube, std::uint32_t l, const BakeOptions& options) {
     const bool exact = options.shading == Shading::Exact;
     OneLight out;
     const auto t0 = Clock::now();
@@ -202,16 +209,16 @@ OneLight shoot_one(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicu
     out.exact.seconds_cpu = seconds_since(t1);
 
     const auto t2 = Clock::now();
-    if (options.dm) project_shadow_edges(g, bvh, l, shot, out.near, options.lights, out);
+    if (options.dm) project_shadow_edges(g, regions, bvh, l, shot, out.near, options.lights, out);
     out.shadow.seconds_cpu = seconds_since(t2);
     return out;
 }
 
 }  // namespace
 
-LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicube,
-                        const BakeOptions& options, visdb::BakeStats* stats,
-                        const ProgressFn& progress) {
+LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
+                        const Hemicube& hemicube, const BakeOptions& options,
+                        visdb::BakeStats* stats, const ProgressFn& progress) {
     const std::size_t nt = g.mesh.triangles.size(), nv = g.mesh.positions.size();
     const bool exact_vertices = options.shading == Shading::Exact && !options.dm;
     LightShots shots;
@@ -228,7 +235,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& h
 
     tbb::parallel_for(std::size_t{0}, g.lights.size(), [&](std::size_t li) {
         const std::uint32_t l = g.lights[li];
-        const OneLight one = shoot_one(g, bvh, hemicube, l, options);
+        const OneLight one = shoot_one(g, regions, bvh, hemicube, l, options);
         // The light's receivers and their vertices are the only non-zero entries
         std::lock_guard lock(accumulate);
         for (const std::uint32_t j : one.near) shots.triangle_irradiance[j] += one.triangle[j];

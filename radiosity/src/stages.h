@@ -86,9 +86,11 @@ Regions make_regions(const BakeGeometry& g);
 
 /// Shoots from every light triangle (in parallel). Fills stats->shoot, the light and power
 /// figures, and stats->exact_shade (exact shading without DM) or the shadow part of stats->dm.
-LightShots shoot_lights(const BakeGeometry& g, const Bvh& bvh, const Hemicube& hemicube,
-                        const BakeOptions& options, visdb::BakeStats* stats,
-                        const ProgressFn& progress);
+/// Shadow edges of a light go only to regions its hemicube reached (some triangle with F > 0):
+/// a region it does not light has no edge of its light.
+LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
+                        const Hemicube& hemicube, const BakeOptions& options,
+                        visdb::BakeStats* stats, const ProgressFn& progress);
 
 /// Meshes every planar region along its shadow segments and refines it; consumes `segments`.
 /// Fills stats->dm (all but the shadow edge counters, which shoot_lights filled).
