@@ -90,23 +90,9 @@ class Bvh {
     /// skipped.
     template <typename Enter, typename Visit>
     void front_to_back(const glm::dvec3& eye, Enter&& enter, Visit&& visit) const {
-        if (m_nodes.empty()) return;
-        std::uint32_t stack[64];
-        int top = 0;
-        stack[top++] = 0;
-        while (top > 0) {
-            const Node& n = m_nodes[stack[--top]];
-            if (!enter(n.box)) continue;
-            if (n.count > 0) {
-                for (std::uint32_t i = 0; i < n.count; ++i) visit(m_order[n.first + i]);
-                continue;
-            }
-            // The nearer child on top of the stack
-            const bool left_first =
-                distance2(m_nodes[n.first].box, eye) <= distance2(m_nodes[n.first + 1].box, eye);
-            stack[top++] = left_first ? n.first + 1 : n.first;
-            stack[top++] = left_first ? n.first : n.first + 1;
-        }
+        walk(enter, visit, [&](const Node& n) {
+            return distance2(m_nodes[n.first].box, eye) <= distance2(m_nodes[n.first + 1].box, eye);
+        });
     }
 
     /// Squared distance from `p` to the box (0 inside).
@@ -131,22 +117,34 @@ class Bvh {
     // Depth-first walk: nodes and patches whose box passes `meets` are entered or visited.
     template <typename Meets, typename Visit>
     void traverse(Meets&& meets, Visit&& visit) const {
+        walk(
+            meets,
+            [&](std::uint32_t id) {
+                if (meets(m_boxes[id])) visit(id);
+            },
+            [](const Node&) { return false; });
+    }
+
+    // The one stack walk: nodes passing `enter` are entered, every item of an entered leaf
+    // goes to `visit`, and an inner node's left child is walked first when `left_first(node)`
+    // (the right one otherwise). Depth is bounded by build (48), the stack by 64.
+    template <typename Enter, typename Visit, typename LeftFirst>
+    void walk(Enter&& enter, Visit&& visit, LeftFirst&& left_first) const {
         if (m_nodes.empty()) return;
         std::uint32_t stack[64];
         int top = 0;
         stack[top++] = 0;
         while (top > 0) {
             const Node& n = m_nodes[stack[--top]];
-            if (!meets(n.box)) continue;
+            if (!enter(n.box)) continue;
             if (n.count > 0) {
-                for (std::uint32_t i = 0; i < n.count; ++i) {
-                    const std::uint32_t id = m_order[n.first + i];
-                    if (meets(m_boxes[id])) visit(id);
-                }
-            } else {
-                stack[top++] = n.first;
-                stack[top++] = n.first + 1;
+                for (std::uint32_t i = 0; i < n.count; ++i) visit(m_order[n.first + i]);
+                continue;
             }
+            // The child walked first goes on top of the stack
+            const bool left = left_first(n);
+            stack[top++] = left ? n.first + 1 : n.first;
+            stack[top++] = left ? n.first : n.first + 1;
         }
     }
 
