@@ -148,9 +148,6 @@ void validate(const BakeOptions& o) {
     if (o.resolution < 2 || o.resolution > 4096 || o.resolution % 2 != 0)
         throw InputError("--resolution must be an even number in [2, 4096], got " +
                          std::to_string(o.resolution));
-    if (o.element_resolution < 2 || o.element_resolution > 4096 || o.element_resolution % 2 != 0)
-        throw InputError("--element-resolution must be an even number in [2, 4096], got " +
-                         std::to_string(o.element_resolution));
     if (o.method == Visibility::ABuffer && o.subpixels != 4 && o.subpixels != 8 &&
         o.subpixels != 16)
         throw InputError("--subpixels must be 4, 8 or 16, got " + std::to_string(o.subpixels));
@@ -160,7 +157,8 @@ void validate(const BakeOptions& o) {
     validate(IndirectOptions{.bounces = std::max(o.bounces, 0),
                              .converge = o.converge,
                              .element_size = o.element_size,
-                             .overrelaxation = o.overrelaxation});
+                             .overrelaxation = o.overrelaxation,
+                             .row_resolution = o.element_resolution});
     if (!(o.reach >= 0.0 && o.reach < 1e7))
         throw InputError("--reach must be >= 0 metres (0 = unlimited), got " +
                          std::to_string(o.reach));

@@ -96,21 +96,28 @@ Mask<2 * S> upsample(const Mask<S>& m) {
 
 using Poly2 = FixedPolygon<glm::dvec2, 16>;
 
+// Edge i of a polygon with its endpoints in a canonical order (lower y first, then lower x),
+// so an edge shared by two polygons gives the same x in both.
+struct Edge {
+    const glm::dvec2* a;
+    const glm::dvec2* b;
+    Edge(const Poly2& p, std::size_t i) : a(&p[i]), b(&p[(i + 1) % p.size()]) {
+        if (b->y < a->y || (b->y == a->y && b->x < a->x)) std::swap(a, b);
+    }
+    // Whether the edge spans height y (half-open: [a.y, b.y)), and its x there
+    bool spans(double y) const { return a->y <= y && y < b->y; }
+    double x_at(double y) const { return a->x + (y - a->y) * (b->x - a->x) / (b->y - a->y); }
+};
+
 // x-span [xl, xr) of a convex polygon on the line at height y (half-open in y at vertices).
 bool span_at(const Poly2& p, double y, double& xl, double& xr) {
     xl = std::numeric_limits<double>::infinity();
     xr = -xl;
-    const std::size_t n = p.size();
-    for (std::size_t i = 0; i < n; ++i) {
-        // Edge endpoints in a canonical order (lower y first), so an edge shared by two
-        // polygons gives the same x in both
-        const glm::dvec2* a = &p[i];
-        const glm::dvec2* b = &p[(i + 1) % n];
-        if (b->y < a->y || (b->y == a->y && b->x < a->x)) std::swap(a, b);
-        if (a->y <= y && y < b->y) {
-            const double x = a->x + (y - a->y) * (b->x - a->x) / (b->y - a->y);
-            xl = std::min(xl, x);
-            xr = std::max(xr, x);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        const Edge e(p, i);
+        if (e.spans(y)) {
+            xl = std::min(xl, e.x_at(y));
+            xr = std::max(xr, e.x_at(y));
         }
     }
     return xl < xr;
@@ -167,18 +174,14 @@ struct RowSpans {
             xl[k] = std::numeric_limits<double>::infinity();
             xr[k] = -xl[k];
         }
-        const std::size_t n = p.size();
-        for (std::size_t i = 0; i < n; ++i) {
-            const glm::dvec2* a = &p[i];
-            const glm::dvec2* b = &p[(i + 1) % n];
-            if (b->y < a->y || (b->y == a->y && b->x < a->x)) std::swap(a, b);
-            if (!(a->y < b->y) || b->y <= y0 || a->y >= y0 + 1.0) continue;
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            const Edge e(p, i);
+            if (!(e.a->y < e.b->y) || e.b->y <= y0 || e.a->y >= y0 + 1.0) continue;
             for (int k = 0; k < N; ++k) {
                 const double y = y0 + (k + 0.5) / N;
-                if (a->y <= y && y < b->y) {
-                    const double x = a->x + (y - a->y) * (b->x - a->x) / (b->y - a->y);
-                    xl[k] = std::min(xl[k], x);
-                    xr[k] = std::max(xr[k], x);
+                if (e.spans(y)) {
+                    xl[k] = std::min(xl[k], e.x_at(y));
+                    xr[k] = std::max(xr[k], e.x_at(y));
                 }
             }
         }

@@ -117,7 +117,8 @@ struct IndirectSolution {
 };
 
 /// Checks options (bounces in [0, 1000], converge in (0, 1), element_size > 0,
-/// overrelaxation in [1, 2)); throws InputError naming the option.
+/// overrelaxation in [1, 2), row_resolution even in [2, 4096]); throws InputError naming the
+/// option.
 void validate(const IndirectOptions& options);
 
 /// Solves the interreflection of `input`: shoots once from every light triangle onto the
