@@ -39,6 +39,7 @@ std::vector<std::pair<std::string, std::string>> parameters_of(const BakeOptions
         }
         p.emplace_back("element_size", std::to_string(o.element_size));
         p.emplace_back("element_resolution", std::to_string(o.element_resolution));
+        p.emplace_back("shooter_cells", std::to_string(o.shooter_cells));
     }
     if (o.dm) {
         p.emplace_back("dm_angle", std::to_string(o.dm_min_angle));
@@ -129,6 +130,8 @@ constexpr UsedWhen kUsedWhen[] = {
      "--bounces converge or N > 0"},
     {"--element-size", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},
+    {"--shooter-cells", [](const BakeOptions& o) { return o.bounces != 0; },
+     "--bounces converge or N > 0"},
     {"--convergence-csv", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},
     {"--lights", [](const BakeOptions& o) { return o.dm; }, "--dm on"},
@@ -157,6 +160,7 @@ void validate(const BakeOptions& o) {
     validate(IndirectOptions{.bounces = std::max(o.bounces, 0),
                              .converge = o.converge,
                              .element_size = o.element_size,
+                             .shooter_cells = o.shooter_cells,
                              .overrelaxation = o.overrelaxation,
                              .row_resolution = o.element_resolution});
     if (!(o.reach >= 0.0 && o.reach < 1e7))

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <vector>
 
 #include "abrad/radiosity/form_factor.h"
@@ -50,21 +51,44 @@ struct LightPlane {
 };
 
 // The shadow of `occ` seen from x on the light plane, counter-clockwise; false when the
-// occluder cannot block any of the light from x.
-bool occluder_shadow(const LightPlane& lp, const Patch& occ, Poly2& shadow) {
+// occluder cannot block any of the light from x, or when its shadow misses the box [lo, hi]
+// of what is left of the light.
+bool occluder_shadow(const LightPlane& lp, const Patch& occ, const glm::dvec2& lo,
+                     const glm::dvec2& hi, Poly2& shadow) {
     const glm::dvec3 x = lp.x, n = lp.n, l0 = lp.l0, nl = lp.nl;
     const double sx = lp.sx;
     // Quick rejection: a blocking point lies strictly above x's tangent plane and strictly
     // between x and the light's plane (0 < r < 1, r = s(p)/s(x))
     constexpr double kEps = 1e-9;
-    bool above = false, below_light = false, beyond_x = false;
-    for (const auto& p : occ.p) {
-        const double r = glm::dot(p - l0, nl) / sx;
+    bool above = false, below_light = false, beyond_x = false, inside = true;
+    double sp[3];
+    for (int k = 0; k < 3; ++k) {
+        const glm::dvec3& p = occ.p[k];
+        sp[k] = glm::dot(p - l0, nl);
+        const double r = sp[k] / sx;
         above = above || glm::dot(p - x, n) > 0.0;
         below_light = below_light || r < 1.0 - kEps;
         beyond_x = beyond_x || r > kEps;
+        inside = inside && r - kEps >= 0.0 && (1.0 - kEps) - r >= 0.0;
     }
     if (!above || !below_light || !beyond_x) return false;
+    // Central projection from x onto the light plane. The whole triangle lies between the
+    // planes (the usual case): project its corners and drop it at once when their box misses
+    // what is left of the light, before any clipping
+    const auto project = [&](const glm::dvec3& p, double s) {
+        return lp.to2(x + (p - x) * (sx / (sx - s)));
+    };
+    shadow.clear();
+    if (inside) {
+        glm::dvec2 slo(std::numeric_limits<double>::infinity()), shi(-slo);
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec2 q = project(occ.p[k], sp[k]);
+            slo = glm::min(slo, q);
+            shi = glm::max(shi, q);
+            shadow.push_back(q);
+        }
+        if (shi.x <= lo.x || slo.x >= hi.x || shi.y <= lo.y || slo.y >= hi.y) return false;
+    }
     // An occluder whose plane contains x blocks nothing: the rays from x that meet it lie in
     // its plane, a set of measure zero of the light. (Projected from x, such an occluder
     // collapses to a segment with a zero-length edge, which the subtraction below would read
@@ -75,20 +99,17 @@ bool occluder_shadow(const LightPlane& lp, const Patch& occ, Poly2& shadow) {
     if (!(on_len > 0.0)) return false;  // degenerate: no area to block with
     const double size = std::sqrt(on_len);
     if (std::abs(glm::dot(x - occ.p[0], on / on_len)) <= 1e-9 * size) return false;
-    // Keep the part of the occluder strictly between the light plane and x:
-    // r in (eps, 1 - eps)
-    Polygon3 part;
-    for (const auto& p : occ.p) part.push_back(p);
-    part =
-        clip_polygon(part, [&](const glm::dvec3& p) { return glm::dot(p - l0, nl) / sx - kEps; });
-    part = clip_polygon(
-        part, [&](const glm::dvec3& p) { return (1.0 - kEps) - glm::dot(p - l0, nl) / sx; });
-    if (part.size() < 3) return false;
-    // Central projection from x onto the light plane
-    shadow.clear();
-    for (const auto& p : part) {
-        const double sp = glm::dot(p - l0, nl);
-        shadow.push_back(lp.to2(x + (p - x) * (sx / (sx - sp))));
+    if (!inside) {
+        // Keep the part of the occluder strictly between the light plane and x:
+        // r in (eps, 1 - eps)
+        Polygon3 part;
+        for (const auto& p : occ.p) part.push_back(p);
+        part = clip_polygon(part,
+                            [&](const glm::dvec3& p) { return glm::dot(p - l0, nl) / sx - kEps; });
+        part = clip_polygon(
+            part, [&](const glm::dvec3& p) { return (1.0 - kEps) - glm::dot(p - l0, nl) / sx; });
+        if (part.size() < 3) return false;
+        for (const auto& p : part) shadow.push_back(project(p, glm::dot(p - l0, nl)));
     }
     const double a2 = signed_area2(shadow);
     if (std::abs(a2) <= 1e-18 * lp.scale * lp.scale) return false;
@@ -101,20 +122,25 @@ bool occluder_shadow(const LightPlane& lp, const Patch& occ, Poly2& shadow) {
 }
 
 // Subtracts the convex `shadow` (letting `transmit` of the light through) from every piece it
-// overlaps; the result goes to `next`. True when the shadow covered some piece.
+// overlaps: those pieces are replaced by their parts outside it (and, when it lets light
+// through, the part under it); the others stay where they are. `cut` is scratch. True when the
+// shadow covered some piece.
 bool subtract_shadow(std::vector<Piece>& pieces, const Poly2& shadow, double transmit,
-                     std::vector<Piece>& next) {
+                     std::vector<Piece>& cut) {
     glm::dvec2 slo = shadow[0], shi = shadow[0];
     for (const auto& v : shadow) {
         slo = glm::min(slo, v);
         shi = glm::max(shi, v);
     }
-    next.clear();
+    cut.clear();
     bool touched = false;
-    for (Piece& piece : pieces) {
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < pieces.size(); ++i) {
+        Piece& piece = pieces[i];
         if (piece.hi.x <= slo.x || piece.lo.x >= shi.x || piece.hi.y <= slo.y ||
             piece.lo.y >= shi.y) {
-            next.push_back(piece);  // trivially copyable
+            if (kept != i) pieces[kept] = piece;
+            ++kept;
             continue;
         }
         Poly2 rest = piece.poly;
@@ -126,7 +152,7 @@ bool subtract_shadow(std::vector<Piece>& pieces, const Poly2& shadow, double tra
             if (outside.size() >= 3 && std::abs(signed_area2(outside)) > 0.0) {
                 Piece p{outside, piece.weight, {}, {}};
                 bound(p);
-                next.push_back(p);
+                cut.push_back(p);
             }
             rest = clip_polygon(rest, [&](const glm::dvec2& v) { return left_of(a, b, v); });
         }
@@ -135,12 +161,23 @@ bool subtract_shadow(std::vector<Piece>& pieces, const Poly2& shadow, double tra
             if (transmit > 0.0) {
                 Piece p{rest, piece.weight * transmit, {}, {}};
                 bound(p);
-                next.push_back(p);
+                cut.push_back(p);
             }
         }
     }
-    pieces.swap(next);
+    pieces.resize(kept);
+    pieces.insert(pieces.end(), cut.begin(), cut.end());
     return touched;
+}
+
+// The box of all pieces.
+void bound_all(const std::vector<Piece>& pieces, glm::dvec2& lo, glm::dvec2& hi) {
+    lo = glm::dvec2(std::numeric_limits<double>::infinity());
+    hi = -lo;
+    for (const Piece& p : pieces) {
+        lo = glm::min(lo, p.lo);
+        hi = glm::max(hi, p.hi);
+    }
 }
 
 }  // namespace
@@ -172,14 +209,16 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
     pieces[0].weight = 1.0;
     bound(pieces[0]);
 
-    std::vector<Piece> next;
+    std::vector<Piece> cut;
     Poly2 shadow;
+    glm::dvec2 lo = pieces[0].lo, hi = pieces[0].hi;  // box of what is left of the light
     for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
         const Patch* occ = occluders[oi];
         if (stats) ++stats->occluders_tested;
-        if (!occluder_shadow(lp, *occ, shadow)) continue;
+        if (!occluder_shadow(lp, *occ, lo, hi, shadow)) continue;
         const double transmit = 1.0 - std::clamp(occ->opacity, 0.0, 1.0);
-        const bool touched = subtract_shadow(pieces, shadow, transmit, next);
+        const bool touched = subtract_shadow(pieces, shadow, transmit, cut);
+        if (touched || !cut.empty()) bound_all(pieces, lo, hi);
         if (touched && stats) {
             ++stats->occluders_projected;
             if (stats->touched) stats->touched->push_back(static_cast<std::uint32_t>(oi));

@@ -26,6 +26,7 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
     const IndirectOptions io{.bounces = std::max(options.bounces, 0),
                              .converge = options.converge,
                              .element_size = options.element_size,
+                             .shooter_cells = options.shooter_cells,
                              .overrelaxation = options.overrelaxation,
                              .ambient = options.ambient,
                              .method = options.method,
@@ -45,6 +46,7 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
         visdb::InterreflectionStats& i = stats->indirect.emplace();
         i.elements = s.elements.size();
         i.pieces = s.pieces;
+        i.shooters = s.shooters;
         i.shots = s.shots;
         i.rows = s.rows_computed;
         i.bounces = static_cast<std::uint64_t>(s.bounces_done);

@@ -165,6 +165,7 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     EXPECT_NE(message_of(o, "--overrelax"), "");
     EXPECT_NE(message_of(o, "--element-size"), "");
     EXPECT_NE(message_of(o, "--element-resolution"), "");
+    EXPECT_NE(message_of(o, "--shooter-cells"), "");
     EXPECT_EQ(message_of(o, "--subpixels"), "");
     EXPECT_EQ(message_of(o, "--lights"), "");
     EXPECT_EQ(message_of(o, "--refine-tolerance"), "");

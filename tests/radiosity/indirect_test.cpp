@@ -171,6 +171,29 @@ TEST(Interreflection, OverRelaxationConvergesToTheSameLight) {
     expect_energy_balance(over);
 }
 
+// Elements shoot in blocks of 2×2 cells where no other surface stands within half a block in
+// front of them (the middle of the floor, walls and ceiling), cell by cell elsewhere: fewer
+// hemicubes, the same light. (Near a wall a block's one shooting point would misplace the
+// light the wall's foot gets: LightReflectedFromTheFloorOntoWallsAndCeiling checks that.)
+TEST(Interreflection, ShootersGroupCellsAwayFromOtherSurfacesAndKeepTheLight) {
+    const visdb::Scene scene = room({0.7, 0.7, 0.7, 0.0});
+    BakeOptions o = quick(-1);
+    o.shooter_cells = 1;
+    const visdb::Bake alone = bake(scene, o);
+    o.shooter_cells = 2;
+    const visdb::Bake grouped = bake(scene, o);
+    const auto& a = alone.statistics.indirect.value();
+    const auto& g = grouped.statistics.indirect.value();
+    EXPECT_EQ(a.shooters, a.elements);
+    EXPECT_EQ(g.elements, a.elements);
+    // Blocks away from the walls: the floor's, walls' and ceiling's middles
+    EXPECT_LT(g.shooters, a.elements - 12);
+    EXPECT_GT(g.shooters, a.elements / 2);  // the cells along the room's edges shoot alone
+    EXPECT_LT(g.rows, a.rows);
+    expect_energy_balance(grouped);
+    EXPECT_NEAR(mean_irradiance(grouped), mean_irradiance(alone), 0.005 * mean_irradiance(alone));
+}
+
 TEST(Interreflection, EnergyBalanceWithAnOpening) {
     // Black room, open floor: the light's power escapes as F(centroid → floor opening)
     {

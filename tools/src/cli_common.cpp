@@ -74,6 +74,11 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
                    "Hemicube resolution of the interreflection's element rows (even, 2..4096; "
                    "the lights' shots use --resolution)")
         ->capture_default_str();
+    app.add_option("--shooter-cells", a.shooter_cells,
+                   "Interreflection elements shoot in groups of N x N cells of a surface "
+                   "(small faces grouped in cubes of that side), one hemicube per group "
+                   "(1..16; 1 = every element alone)")
+        ->capture_default_str();
     app.add_option("--element-size", a.element_size,
                    "Side of the interreflection elements, metres "
                    "(each planar region is cut into such cells)")
@@ -148,6 +153,7 @@ radiosity::BakeOptions to_options(const BakeArgs& a, const CLI::App& app) {
     o.converge = a.converge;
     o.element_size = a.element_size;
     o.element_resolution = a.element_resolution;
+    o.shooter_cells = a.shooter_cells;
     o.overrelaxation = a.overrelax;
     o.ambient = a.ambient == "on";
     o.shading = a.shading == "patch" ? radiosity::Shading::Patch : radiosity::Shading::Exact;

@@ -73,6 +73,7 @@ struct BakeArgs {
     double converge = 0.005;
     double element_size = 0.5;
     int element_resolution = 32;
+    int shooter_cells = 2;
     double overrelax = 1.0;
     std::string ambient = "on";
     std::string convergence_csv;

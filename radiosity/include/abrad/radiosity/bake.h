@@ -63,6 +63,8 @@ struct BakeOptions {
     /// Hemicube resolution of the element rows (the lights' shots onto the elements use
     /// `resolution`): element-to-element form factors are sums over many pixels.
     int element_resolution = 32;
+    /// Elements shoot in groups of shooter_cells × shooter_cells cells (1 = alone).
+    int shooter_cells = 2;
     double overrelaxation = 1.0;  ///< Southwell ω in [1, 2) when converging
     bool ambient = true;          ///< spread what is left unshot as the ambient term
     /// When set, receives the convergence curve (unshot fraction against shots and time).

@@ -4,11 +4,13 @@
 // unshot radiosity with the same A-buffer hemicube as the lights, in order of unshot power,
 // optionally over-relaxed; what is left unshot at the end is spread as the ambient term.
 //
-// Elements are clusters of the scene's triangles: every planar region (coplanar, connected
-// triangles of one surface) is cut by a square grid of side `element_size` in its plane, and
-// the triangles (those longer than its diagonal subdivided first) whose centroid falls in one cell
-// make one element. The element's radiosity is constant; values between elements are
-// interpolated bilinearly from the cell centres of the region's grid.
+// Elements are cells of the scene's planar regions (coplanar, connected triangles of one
+// surface): every region is cut by a square grid of side `element_size` in its plane, and the
+// parts of its triangles in one cell (exact triangle ∩ cell polygons) make one element. The
+// element's radiosity is constant; values between elements are interpolated bilinearly from the
+// cell centres of the region's grid. Elements receive alone but shoot in groups (shooters:
+// blocks of cells, and small faces grouped by place and facing), one hemicube per group, the
+// shooting side of a hierarchy (Hanrahan, Salzman & Aupperle 1991) one level deep.
 
 #include <cstddef>
 #include <cstdint>
@@ -44,8 +46,11 @@ struct IndirectOptions {
     /// Number of bounces (each one a Jacobi sweep: every element shoots what it received in
     /// the previous bounce), or 0 to converge on the unshot fraction instead.
     int bounces = 0;
-    double converge = 0.005;            ///< stop when unshot power / emitted power falls below this
-    double element_size = 0.5;          ///< metres: side of the element grid in each region
+    double converge = 0.005;    ///< stop when unshot power / emitted power falls below this
+    double element_size = 0.5;  ///< metres: side of the element grid in each region
+    /// Elements shoot in groups (shooters): blocks of shooter_cells × shooter_cells cells of a
+    /// region, and the small faces within cubes of that side; 1 = every element alone.
+    int shooter_cells = 2;
     double overrelaxation = 1.0;        ///< Southwell factor ω in [1, 2): shoot ω × unshot
     bool ambient = true;                ///< spread what is left unshot as the ambient term
     std::size_t max_shots = 2'000'000;  ///< a safety bound on shots when converging
@@ -83,8 +88,9 @@ struct IndirectSolution {
 
     // What the solution did
     std::size_t pieces = 0;              ///< parts of triangles in elements (triangle ∩ cell)
-    std::size_t shots = 0;               ///< element shots (the lights' not counted)
-    std::size_t rows_computed = 0;       ///< hemicubes placed at elements
+    std::size_t shooters = 0;            ///< groups of elements that shoot as one
+    std::size_t shots = 0;               ///< shooter shots (the lights' not counted)
+    std::size_t rows_computed = 0;       ///< hemicubes placed at shooters
     std::size_t rows_cached = 0;         ///< form-factor rows kept for reuse at the end
     int bounces_done = 0;                ///< complete bounces (bounce mode)
     visdb::Rgb ambient_irradiance{0.0};  ///< added to every element by the ambient term
@@ -117,8 +123,8 @@ struct IndirectSolution {
 };
 
 /// Checks options (bounces in [0, 1000], converge in (0, 1), element_size > 0,
-/// overrelaxation in [1, 2), row_resolution even in [2, 4096]); throws InputError naming the
-/// option.
+/// shooter_cells in [1, 16], overrelaxation in [1, 2), row_resolution even in [2, 4096]);
+/// throws InputError naming the option.
 void validate(const IndirectOptions& options);
 
 /// Solves the interreflection of `input`: shoots once from every light triangle onto the
