@@ -42,13 +42,21 @@ bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
     return lo < -eps && hi > eps;
 }
 
+// A shadow segment of one light on receiver triangle j, with the light's unoccluded
+// irradiance along it (the most it can change the light there: the jump it may mark).
+struct LitSegment {
+    std::uint32_t j;
+    ShadowSegment segment;
+    double jump;  // mean over RGB
+};
+
 // One light's shot and what it contributes, before it is added to the totals.
 struct OneLight {
     std::vector<std::uint32_t> near;           // triangles the light can reach (cull.h)
     std::vector<std::uint32_t> near_vertices;  // their vertices
     std::vector<visdb::Rgb> triangle;          // patch irradiance, all triangles
     std::vector<visdb::Rgb> vertex;            // exact irradiance (exact shading without DM)
-    std::vector<std::pair<std::uint32_t, ShadowSegment>> segments;  // (receiver, segment)
+    std::vector<LitSegment> segments;
     visdb::ShootStats shoot;
     visdb::ExactShadeStats exact;
     visdb::ShadowEdgeStats shadow;
@@ -133,6 +141,7 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                           const std::vector<std::uint32_t>& receivers, LightModel model,
                           OneLight& out) {
     const Patch& light = g.patches[l];
+    const double emittance = visdb::channel_mean(g.emittance[l]);
     // The regions the light's hemicube reached: the others get no light, so no shadow edge
     std::vector<char> reached(regions.planar.size(), 0);
     for (const std::uint32_t j : receivers)
@@ -141,7 +150,7 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
     std::mutex accumulate;
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, receivers.size(), 32), [&](const auto& range) {
-            std::vector<std::pair<std::uint32_t, ShadowSegment>> here;
+            std::vector<LitSegment> here;
             std::vector<std::uint32_t> ids;
             std::vector<const Patch*> occ;
             ShadowStats s;
@@ -166,8 +175,23 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                 counts.occluders_added_by_bvh += ids.size() - n_listed;
                 occ.clear();
                 for (std::uint32_t id : ids) occ.push_back(&g.patches[id]);
-                for (const ShadowSegment& seg : shadow_edges(light, model, r, occ, 1e-6, &s))
-                    here.emplace_back(j, seg);
+                // The light's largest unoccluded form factor on the receiver (at its corners
+                // and centroid): a shadow edge bounds a region of the receiver where this
+                // light's part changes by up to that much (at the light's own plane it is 0 on
+                // the edge and grows beside it)
+                double f_receiver = -1.0;
+                for (const ShadowSegment& seg : shadow_edges(light, model, r, occ, 1e-6, &s)) {
+                    if (f_receiver < 0.0) {
+                        f_receiver = visible_form_factor(centroid(r), rn, light, {});
+                        for (const glm::dvec3& x : r.p)
+                            f_receiver =
+                                std::max(f_receiver, visible_form_factor(x, rn, light, {}));
+                    }
+                    double f = f_receiver;
+                    for (const glm::dvec3& x : {seg.a, 0.5 * (seg.a + seg.b), seg.b})
+                        f = std::max(f, visible_form_factor(x, rn, light, {}));
+                    here.push_back({j, seg, emittance * f});
+                }
             }
             std::lock_guard lock(accumulate);
             out.segments.insert(out.segments.end(), here.begin(), here.end());
@@ -214,6 +238,26 @@ OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh
     return out;
 }
 
+// The shadow segments that earn a mesh edge go to their receivers: those of a light that
+// gives the receiver more than the refinement's floor (1/1000 of the brightest patch's
+// irradiance). The others mark a change the refinement would not mesh either: a weak or
+// distant light. Returns how many were dropped.
+std::uint64_t keep_strong(std::vector<LitSegment>& lit, LightShots& shots) {
+    double h_max = 0.0;
+    for (const visdb::Rgb& h : shots.triangle_irradiance)
+        h_max = std::max(h_max, visdb::channel_mean(h));
+    std::uint64_t dropped = 0;
+    for (const LitSegment& s : lit) {
+        if (s.jump < 1e-3 * h_max) {
+            ++dropped;
+            continue;
+        }
+        shots.segments[s.j].push_back(s.segment);
+    }
+    lit = {};
+    return dropped;
+}
+
 }  // namespace
 
 LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
@@ -231,6 +275,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     visdb::ShadowEdgeStats shadow_stats;
     std::mutex accumulate;
     std::size_t done = 0;
+    std::vector<LitSegment> lit;
     if (progress) progress("shoot", 0, g.lights.size());
 
     tbb::parallel_for(std::size_t{0}, g.lights.size(), [&](std::size_t li) {
@@ -242,7 +287,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
         if (exact_vertices)
             for (const std::uint32_t v : one.near_vertices)
                 shots.vertex_irradiance[v] += one.vertex[v];
-        for (const auto& [j, seg] : one.segments) shots.segments[j].push_back(seg);
+        lit.insert(lit.end(), one.segments.begin(), one.segments.end());
         if (options.dm)
             for (const std::uint32_t j : one.near)
                 if (visdb::any_positive(one.triangle[j])) shots.lights_of_triangle[j].push_back(l);
@@ -252,6 +297,8 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
         ++done;
         if (progress) progress("shoot", done, g.lights.size());
     });
+
+    if (options.dm) shadow_stats.segments_weak = keep_strong(lit, shots);
 
     if (stats) {
         // Energy: emitted power, and power arriving on the receivers (from the hemicube)

@@ -210,6 +210,41 @@ TEST(Bake, ThreadCountIsTheBakesOwn) {
                         1e-6f * std::max(1.0f, b.mesh.irradiance[v][c]));
 }
 
+// A shadow edge earns a mesh edge only where the refinement would mesh the change it marks:
+// the edges a dim second light (1e-5 of the main one) casts of the occluder mark changes under
+// the refinement's floor and are dropped and counted; the main light's are kept.
+TEST(Bake, ShadowEdgesOnlyWhereTheRefinementWouldMeshThem) {
+    BakeOptions o;
+    o.bounces = 0;
+    o.lights = LightModel::Centroid;  // hard edges: one line per occluder edge
+    o.refine_rounds = 0;
+    const auto segments = [&](const visdb::Scene& scene) {
+        const visdb::Bake b = bake(scene, o);
+        const visdb::DiscontinuityStats& dm = b.statistics.dm.value();
+        return std::pair{dm.segments, dm.shadow.segments_weak};
+    };
+    const auto [base, base_weak] = segments(paper_scene(true));
+    EXPECT_GT(base, 4u);  // the occluder's square shadow, cut by the floor's triangles
+    EXPECT_EQ(base_weak, 0u);
+
+    visdb::Scene dim = paper_scene(true);
+    for (const double e : {1e-4, 5.0}) {
+        dim.materials.push_back({"dim", {0, 0, 0}, {e, e, e}, 1.0});
+        dim.surfaces.push_back(
+            abrad::testing::grid("dim", static_cast<std::uint32_t>(dim.materials.size() - 1), -0.95,
+                                 -0.65, -0.95, -0.65, 1.4, 1, false));
+        const auto [kept, weak] = segments(dim);
+        if (e < 1e-3) {  // under 1/1000 of the main light's brightest patch: dropped
+            EXPECT_EQ(kept, base);
+            EXPECT_GT(weak, 4u);
+        } else {  // half the main light: its edges are kept where it lights the floor
+            EXPECT_GT(kept, base);
+        }
+        dim.surfaces.pop_back();
+        dim.materials.pop_back();
+    }
+}
+
 // Vertices are split where faces of one surface differ in normal, never shared across surfaces.
 TEST(Bake, VerticesNotSharedAcrossSurfacesOrNormals) {
     BakeOptions o;

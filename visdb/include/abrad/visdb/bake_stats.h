@@ -63,6 +63,7 @@ struct ShadowEdgeStats {
     std::uint64_t edges_projected = 0;         ///< occluder edge × light point projections
     std::uint64_t shared_edges_skipped = 0;    ///< edges shared by two occluders, not projected
     std::uint64_t segments_split = 0;          ///< segments cut by an opaque occluder in front
+    std::uint64_t segments_weak = 0;  ///< segments dropped: a jump or length under the tolerances
     double seconds_cpu = 0.0;
 
     ShadowEdgeStats& operator+=(const ShadowEdgeStats& o) {
@@ -72,6 +73,7 @@ struct ShadowEdgeStats {
         edges_projected += o.edges_projected;
         shared_edges_skipped += o.shared_edges_skipped;
         segments_split += o.segments_split;
+        segments_weak += o.segments_weak;
         seconds_cpu += o.seconds_cpu;
         return *this;
     }
@@ -166,6 +168,7 @@ void dm_keys(D& d, F& f) {
     f("dm_shadow_edges_projected", d.shadow.edges_projected);
     f("dm_shadow_shared_edges_skipped", d.shadow.shared_edges_skipped);
     f("dm_shadow_segments_split", d.shadow.segments_split);
+    f("dm_shadow_segments_weak", d.shadow.segments_weak);
     f("dm_shadow_segments", d.segments);
     f("dm_constraints_dropped", d.constraints_dropped);
     f("dm_points_merged", d.points_merged);
