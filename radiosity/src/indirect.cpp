@@ -428,7 +428,8 @@ class Solver {
         std::vector<std::vector<std::uint32_t>> members(nk);
         for (std::size_t e = 0; e < m_ne; ++e) members[m_shooter_of[e]].push_back(std::uint32_t(e));
         std::vector<char> near(nk, 0);
-        for (const auto& [key, s] : key_shooter) {
+        for (const auto& [key, shooter] : key_shooter) {
+            const std::uint32_t s = shooter;  // a plain variable: lambdas capture it
             if (key[0] != 0 || members[s].size() < 2) continue;
             const std::uint32_t r = static_cast<std::uint32_t>(key[1]);
             const IndirectSolution::Grid& g = m_sol.grids[r];
