@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -71,6 +72,48 @@ std::uint64_t IndirectSolution::cell_key(std::uint32_t region, int i, int j) {
            std::uint64_t(std::uint32_t(j) & 0xFFFFFu);
 }
 
+std::uint32_t IndirectSolution::element_at(std::uint32_t region, int i, int j) const {
+    if (region < m_tables.size()) {
+        const CellTable& t = m_tables[region];
+        if (t.ni > 0) {
+            const int di = i - t.i0, dj = j - t.j0;
+            if (di < 0 || dj < 0 || di >= t.ni || dj >= t.nj) return kNoElement;
+            return m_cells[t.offset + std::size_t(dj) * std::size_t(t.ni) + std::size_t(di)];
+        }
+    }
+    const auto it = cell_element.find(cell_key(region, i, j));
+    return it != cell_element.end() ? it->second : kNoElement;
+}
+
+void IndirectSolution::index_cells() {
+    m_tables.assign(grids.size(), {});
+    std::vector<glm::ivec2> lo(grids.size(), glm::ivec2(std::numeric_limits<int>::max()));
+    std::vector<glm::ivec2> hi(grids.size(), glm::ivec2(std::numeric_limits<int>::min()));
+    std::vector<std::size_t> count(grids.size(), 0);
+    for (const Element& e : elements) {
+        lo[e.region] = glm::min(lo[e.region], e.cell);
+        hi[e.region] = glm::max(hi[e.region], e.cell);
+        ++count[e.region];
+    }
+    std::size_t total = 0;
+    for (std::size_t r = 0; r < grids.size(); ++r) {
+        if (count[r] == 0) continue;
+        const glm::ivec2 n = hi[r] - lo[r] + 1;
+        const auto cells = std::size_t(n.x) * std::size_t(n.y);
+        if (cells > 16 * count[r] + 64) continue;  // mostly empty: the map answers
+        m_tables[r] = {lo[r].x, lo[r].y, n.x, n.y, total};
+        total += cells;
+    }
+    m_cells.assign(total, kNoElement);
+    for (std::size_t k = 0; k < elements.size(); ++k) {
+        const CellTable& t = m_tables[elements[k].region];
+        if (t.ni == 0) continue;
+        const glm::ivec2 d = elements[k].cell - glm::ivec2(t.i0, t.j0);
+        m_cells[t.offset + std::size_t(d.y) * std::size_t(t.ni) + std::size_t(d.x)] =
+            static_cast<std::uint32_t>(k);
+    }
+}
+
 visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const {
     if (region >= grids.size()) return visdb::Rgb(0.0);
     const Grid& g = grids[region];
@@ -84,10 +127,10 @@ visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const
     double weight = 0.0;
     for (int dj = 0; dj < 2; ++dj)
         for (int di = 0; di < 2; ++di) {
-            const auto it = cell_element.find(cell_key(region, i0 + di, j0 + dj));
-            if (it == cell_element.end()) continue;
+            const std::uint32_t e = element_at(region, i0 + di, j0 + dj);
+            if (e == kNoElement) continue;
             const double w = (di ? a : 1.0 - a) * (dj ? b : 1.0 - b);
-            sum += w * elements[it->second].indirect;
+            sum += w * elements[e].indirect;
             weight += w;
         }
     if (weight > 1e-9) return sum / weight;
@@ -96,12 +139,12 @@ visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const
     visdb::Rgb value(0.0);
     for (int dj = -1; dj <= 2; ++dj)
         for (int di = -1; di <= 2; ++di) {
-            const auto it = cell_element.find(cell_key(region, i0 + di, j0 + dj));
-            if (it == cell_element.end()) continue;
-            const double d = glm::length(elements[it->second].centroid - p);
+            const std::uint32_t e = element_at(region, i0 + di, j0 + dj);
+            if (e == kNoElement) continue;
+            const double d = glm::length(elements[e].centroid - p);
             if (d < best) {
                 best = d;
-                value = elements[it->second].indirect;
+                value = elements[e].indirect;
             }
         }
     return value;
@@ -144,8 +187,8 @@ class ElementTargets final : public Targets {
         const double size = m_sol.element_size;
         const int i = static_cast<int>(std::floor(glm::dot(x - g.origin, g.u) / size));
         const int j = static_cast<int>(std::floor(glm::dot(x - g.origin, g.v) / size));
-        const auto it = m_sol.cell_element.find(IndirectSolution::cell_key(r, i, j));
-        return it != m_sol.cell_element.end() ? it->second : m_main[t];
+        const std::uint32_t e = m_sol.element_at(r, i, j);
+        return e != IndirectSolution::kNoElement ? e : m_main[t];
     }
 
   private:
@@ -330,6 +373,7 @@ class Solver {
         m_targets =
             std::make_unique<ElementTargets>(m_sol, m_in.region, std::move(whole), std::move(main));
         m_ne = m_sol.elements.size();
+        m_sol.index_cells();
         for (std::size_t e = 0; e < m_ne; ++e) {
             auto& el = m_sol.elements[e];
             if (el.area > 0.0) {
@@ -467,8 +511,8 @@ class Solver {
         const double size = m_options.element_size;
         const int i = static_cast<int>(std::floor(glm::dot(p - g.origin, g.u) / size));
         const int j = static_cast<int>(std::floor(glm::dot(p - g.origin, g.v) / size));
-        const auto it = m_sol.cell_element.find(IndirectSolution::cell_key(r, i, j));
-        return it != m_sol.cell_element.end() && m_shooter_of[it->second] == s;
+        const std::uint32_t e = m_sol.element_at(r, i, j);
+        return e != IndirectSolution::kNoElement && m_shooter_of[e] == s;
     }
 
     // Direct light onto the elements: one hemicube per light triangle (the paper's shot)

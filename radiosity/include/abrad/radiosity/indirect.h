@@ -117,9 +117,25 @@ struct IndirectSolution {
     };
     std::vector<Grid> grids;
     std::unordered_map<std::uint64_t, std::uint32_t> cell_element;  ///< cell_key → element
+
+    /// The element of cell (i, j) of `region`, or kNoElement: a dense table per region over
+    /// its cells' bounding rectangle (the hash map for regions whose rectangle is mostly
+    /// empty). The hemicubes ask this for every fragment of a triangle larger than a cell.
+    std::uint32_t element_at(std::uint32_t region, int i, int j) const;
+    static constexpr std::uint32_t kNoElement = 0xFFFFFFFFu;
+    /// Builds the dense tables from `elements` (after the elements are made).
+    void index_cells();
     double element_size = 0.5;
 
     static std::uint64_t cell_key(std::uint32_t region, int i, int j);
+
+  private:
+    struct CellTable {
+        int i0 = 0, j0 = 0, ni = 0, nj = 0;  // ni = 0: not tabled, ask the map
+        std::size_t offset = 0;
+    };
+    std::vector<CellTable> m_tables;  // per region
+    std::vector<std::uint32_t> m_cells;
 };
 
 /// Checks options (bounces in [0, 1000], converge in (0, 1), element_size > 0,
