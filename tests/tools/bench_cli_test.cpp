@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "run_abrad.h"
 #include "temp_dir.h"
@@ -76,6 +77,49 @@ TEST_F(BenchCli, QuickBenchWritesCsvSummaryAndPlots) {
         EXPECT_NE(r.output.find("gnuplot"), std::string::npos) << r.output;
     }
     EXPECT_TRUE(fs::exists(out + "/scaling.gp"));
+}
+
+// A whole building (here the paper's room) is baked once with the bake options, interreflection
+// on, and reported in scaling.csv and the summary with its stages and its energy balance.
+TEST_F(BenchCli, BuildingRowsReportStagesAndEnergy) {
+    const std::string out = path("building");
+    const Outcome r =
+        abrad("bench --out " + out + " --no-room --building " + std::string(ABRAD_SAMPLES) +
+              "/paper_simple/paper_occluder.obj --dm off --element-size 1");
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::ifstream csv(out + "/scaling.csv");
+    std::string header, row, extra;
+    ASSERT_TRUE(std::getline(csv, header));
+    ASSERT_TRUE(std::getline(csv, row));
+    EXPECT_FALSE(std::getline(csv, extra));  // one building, no floors
+    const auto cells = [](const std::string& line) {
+        std::vector<std::string> c;
+        std::string cell;
+        std::stringstream ss(line);
+        while (std::getline(ss, cell, ',')) c.push_back(cell);
+        return c;
+    };
+    const std::vector<std::string> names = cells(header), values = cells(row);
+    ASSERT_EQ(names.size(), values.size()) << row;
+    const auto value = [&](const std::string& name) {
+        for (std::size_t i = 0; i < names.size(); ++i)
+            if (names[i] == name) return values[i];
+        ADD_FAILURE() << "no column " << name;
+        return std::string();
+    };
+    EXPECT_EQ(value("kind"), "building");
+    EXPECT_GT(std::stod(value("indirect_elements")), 0.0);
+    EXPECT_GT(std::stod(value("indirect_rows")), 0.0);
+    EXPECT_GT(std::stod(value("seconds_cpu")), 0.0);
+    const double emitted = std::stod(value("energy_emitted_w"));
+    EXPECT_GT(emitted, 0.0);
+    EXPECT_NEAR(std::stod(value("energy_absorbed_w")) + std::stod(value("energy_escaped_w")) +
+                    std::stod(value("energy_unshot_w")),
+                emitted, 1e-4 * emitted);
+    std::stringstream md;
+    md << std::ifstream(out + "/summary.md").rdbuf();
+    EXPECT_NE(md.str().find("## Whole buildings"), std::string::npos);
+    EXPECT_NE(md.str().find("paper_occluder.obj"), std::string::npos);
 }
 
 }  // namespace

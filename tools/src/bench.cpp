@@ -5,6 +5,7 @@
 
 #include <malloc.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -44,6 +45,14 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// CPU seconds (user + system) of the whole process so far, all threads.
+double cpu_seconds() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    const auto sec = [](const timeval& t) { return double(t.tv_sec) + 1e-6 * double(t.tv_usec); };
+    return sec(u.ru_utime) + sec(u.ru_stime);
 }
 
 // Resident memory now, MB (/proc/self/statm: size resident ... in pages).
@@ -129,7 +138,9 @@ const char* kCsvHeader =
     "scene,kind,triangles_in,light_triangles,method,resolution,subpixels,dm,lights,shading,"
     "triangles_out,seconds_wall,seconds_shoot_cpu,seconds_occlusion_cpu,seconds_shade_cpu,"
     "seconds_shadow_edges_cpu,seconds_mesh,seconds_dm,seconds_store,peak_rss_mb,ff_error,"
-    "field_error_rel_l1,mean_form_factor_sum,occluders_tested";
+    "field_error_rel_l1,mean_form_factor_sum,occluders_tested,seconds_cpu,seconds_indirect,"
+    "indirect_elements,indirect_rows,energy_emitted_w,energy_absorbed_w,energy_escaped_w,"
+    "energy_unshot_w";
 
 std::string csv_row(const BenchRun& r) {
     const BakeOptions& o = r.options;
@@ -145,7 +156,14 @@ std::string csv_row(const BenchRun& r) {
       << fmt(dm_seconds(r.statistics), 6) << ',' << fmt(r.seconds_store, 6) << ','
       << fmt(r.peak_rss_mb, 6) << ',' << fmt(r.ff_error, 6) << ',' << fmt(r.field_error, 6) << ','
       << fmt(r.statistics.mean_form_factor_sum, 9) << ','
-      << (r.statistics.exact_shade ? r.statistics.exact_shade->occluders_tested : 0);
+      << (r.statistics.exact_shade ? r.statistics.exact_shade->occluders_tested : 0) << ','
+      << fmt(r.seconds_cpu, 6);
+    if (const auto& i = r.statistics.indirect)
+        s << ',' << fmt(i->seconds, 6) << ',' << i->elements << ',' << i->rows << ','
+          << fmt(i->energy_emitted_w, 9) << ',' << fmt(i->energy_absorbed_w, 9) << ','
+          << fmt(i->energy_escaped_w, 9) << ',' << fmt(i->energy_unshot_w, 9);
+    else
+        s << ",,,,,,,";
     return s.str();
 }
 
@@ -168,8 +186,10 @@ BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions
     malloc_trim(0);  // hand memory freed by earlier runs back, so the peak is this run's
     PeakMemory peak;
     const auto t0 = Clock::now();
+    const double cpu0 = cpu_seconds();
     visdb::Bake b = radiosity::bake(s.scene, r.options);
     r.seconds_wall = seconds_since(t0);
+    r.seconds_cpu = cpu_seconds() - cpu0;
     const auto t1 = Clock::now();
     store.add_bake(b);
     r.seconds_store = seconds_since(t1);
@@ -325,6 +345,48 @@ bool is_default(const BakeOptions& o) {
     return same_settings(o, d);
 }
 
+// The building and scaling tables of the summary: one row per run, time per stage, energy.
+void write_run_tables(std::ostream& md, const std::vector<BenchRun>& runs) {
+    bool any_scaling = false;
+    for (const char* kind : {"building", "scaling", "lights"}) {
+        std::vector<const BenchRun*> rs;
+        for (const BenchRun& r : runs)
+            if (r.kind == kind) rs.push_back(&r);
+        if (rs.empty()) continue;
+        any_scaling = true;
+        const std::string k = kind;
+        md << (k == "building"  ? "## Whole buildings\n\n"
+               : k == "scaling" ? "## Scaling on generated floors\n\n"
+                                : "## Scaling with light triangles\n\n")
+           << "Settings: " << label(rs.front()->options) << ", interreflection "
+           << (rs.front()->options.bounces < 0 ? std::string("converged")
+               : rs.front()->options.bounces == 0
+                   ? std::string("off")
+                   : std::to_string(rs.front()->options.bounces) + " bounces")
+           << ". Energy: (absorbed + escaped + unshot) / emitted.\n\n"
+           << "| scene | triangles in | light triangles | triangles out | wall s | CPU s | "
+              "shoot cpu s | DM s | interreflection s | elements | hemicubes | store s | "
+              "peak MB | energy | field error |\n"
+           << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+        for (const BenchRun* r : rs) {
+            const auto& in = r->statistics.indirect;
+            const double closure = energy_closure(r->statistics);
+            md << "| " << r->scene << " | " << r->triangles_in << " | " << r->light_triangles
+               << " | " << r->triangles_out << " | " << fmt(r->seconds_wall, 3) << " | "
+               << fmt(r->seconds_cpu, 3) << " | " << fmt(r->statistics.shoot.seconds_cpu, 3)
+               << " | " << (r->statistics.dm ? fmt(dm_seconds(r->statistics), 3) : "-") << " | "
+               << (in ? fmt(in->seconds, 3) : "-") << " | "
+               << (in ? std::to_string(in->elements) : "-") << " | "
+               << (in ? std::to_string(in->rows) : "-") << " | " << fmt(r->seconds_store, 3)
+               << " | " << fmt(r->peak_rss_mb, 4) << " | "
+               << (closure >= 0.0 ? fmt(closure, 6) : std::string("-")) << " | "
+               << (r->field_error >= 0.0 ? fmt(r->field_error, 3) : std::string("-")) << " |\n";
+        }
+        md << "\n";
+    }
+    if (!any_scaling) md << "No scaling or building runs (none asked for).\n";
+}
+
 void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
                    const std::vector<std::string>& scene_names,
                    const std::vector<std::string>& pngs) {
@@ -374,31 +436,7 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
                    << ": not on the front for this scene.\n";
         md << "\n";
     }
-    bool any_scaling = false;
-    for (const char* kind : {"scaling", "lights"}) {
-        std::vector<const BenchRun*> rs;
-        for (const BenchRun& r : runs)
-            if (r.kind == kind) rs.push_back(&r);
-        if (rs.empty()) continue;
-        any_scaling = true;
-        md << (std::string(kind) == "scaling" ? "## Scaling on generated floors\n\n"
-                                              : "## Scaling with light triangles\n\n")
-           << "Settings: " << label(rs.front()->options) << ".\n\n"
-           << "| floor | triangles in | light triangles | triangles out | wall s | shoot cpu s | "
-              "shade cpu s | "
-              "edges cpu s | mesh s | store s | peak MB | field error |\n"
-           << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-        for (const BenchRun* r : rs)
-            md << "| " << r->scene << " | " << r->triangles_in << " | " << r->light_triangles
-               << " | " << r->triangles_out << " | " << fmt(r->seconds_wall, 3) << " | "
-               << fmt(r->statistics.shoot.seconds_cpu, 3) << " | "
-               << fmt(shade_cpu(r->statistics), 3) << " | " << fmt(edges_cpu(r->statistics), 3)
-               << " | " << fmt(mesh_seconds(r->statistics), 3) << " | " << fmt(r->seconds_store, 3)
-               << " | " << fmt(r->peak_rss_mb, 4) << " | "
-               << (r->field_error >= 0.0 ? fmt(r->field_error, 3) : std::string("-")) << " |\n";
-        md << "\n";
-    }
-    if (!any_scaling) md << "No scaling runs (none asked for).\n";
+    write_run_tables(md, runs);
 }
 
 }  // namespace
@@ -492,6 +530,12 @@ double hemicube_ff_error(Visibility method, int resolution, int subpixels) {
     return err / total;
 }
 
+double energy_closure(const visdb::BakeStats& statistics) {
+    const auto& i = statistics.indirect;
+    if (!i || !(i->energy_emitted_w > 0.0)) return -1.0;
+    return (i->energy_absorbed_w + i->energy_escaped_w + i->energy_unshot_w) / i->energy_emitted_w;
+}
+
 std::vector<std::size_t> pareto_front(const std::vector<BenchRun>& runs) {
     std::vector<std::size_t> front;
     for (std::size_t i = 0; i < runs.size(); ++i) {
@@ -555,6 +599,19 @@ std::vector<BenchRun> run_bench(const BenchOptions& bench) {
                      s.name.c_str(), r.triangles_in, r.triangles_out, r.light_triangles,
                      r.seconds_wall, r.peak_rss_mb);
     };
+    // Whole buildings with the same settings
+    for (const BenchScene& b : bench.buildings) {
+        visdb::Store store = fresh_store(b.scene);
+        std::optional<radiosity::DirectField> field;
+        if (b.scene.triangle_count() <= bench.field_error_max / 4) field.emplace(b.scene);
+        runs.push_back(
+            run_one(b, "building", scaling, store, field ? &*field : nullptr, bench, ff_cache));
+        const BenchRun& r = runs.back();
+        std::fprintf(stderr,
+                     "bench: %s: %zu -> %zu triangles, %.3f s wall, %.3f s CPU, peak %.0f MB\n",
+                     b.name.c_str(), r.triangles_in, r.triangles_out, r.seconds_wall, r.seconds_cpu,
+                     r.peak_rss_mb);
+    }
     // Small before large: the process's resident memory is what is measured
     for (int lights : bench.light_counts)
         scale_run(floor_for_triangles(bench.lights_at, lights), "lights");

@@ -19,6 +19,7 @@ namespace {
 struct BenchArgs {
     std::string out;
     std::vector<std::string> models;
+    std::vector<std::string> buildings;
     std::string scene;
     std::vector<std::string> sizes;
     std::vector<int> light_counts;
@@ -50,8 +51,25 @@ std::size_t parse_count(const std::string& text) {
     return v * mult;
 }
 
-// The scenes of the settings grid: the generated room unless --no-room, then the --model files
-// (imported as by abrad import, without the import report).
+// A model file imported as by abrad import (with --scene), without the import report.
+tools::BenchScene import_scene(const BenchArgs& a, const std::string& model) {
+    ImportArgs ia;
+    ia.models = {model};
+    ia.scene = a.scene;
+    std::ostringstream discard;
+    auto* old = std::cout.rdbuf(discard.rdbuf());  // the import report is not the bench's output
+    visdb::Scene scene;
+    try {
+        scene = read_models(ia);
+    } catch (...) {
+        std::cout.rdbuf(old);
+        throw;
+    }
+    std::cout.rdbuf(old);
+    return {fs::path(model).filename().string(), std::move(scene)};
+}
+
+// The scenes of the settings grid: the generated room unless --no-room, then the --model files.
 std::vector<tools::BenchScene> bench_scenes(const BenchArgs& a) {
     std::vector<tools::BenchScene> scenes;
     if (!a.no_room) {
@@ -62,23 +80,7 @@ std::vector<tools::BenchScene> bench_scenes(const BenchArgs& a) {
         scenes.push_back(
             {"generated room (" + tools::to_string(room) + ")", tools::generate_floor(room)});
     }
-    for (const std::string& m : a.models) {
-        ImportArgs ia;
-        ia.models = {m};
-        ia.scene = a.scene;
-        std::ostringstream discard;
-        auto* old =
-            std::cout.rdbuf(discard.rdbuf());  // the import report is not the bench's output
-        visdb::Scene scene;
-        try {
-            scene = read_models(ia);
-        } catch (...) {
-            std::cout.rdbuf(old);
-            throw;
-        }
-        std::cout.rdbuf(old);
-        scenes.push_back({fs::path(m).filename().string(), std::move(scene)});
-    }
+    for (const std::string& m : a.models) scenes.push_back(import_scene(a, m));
     return scenes;
 }
 
@@ -93,7 +95,12 @@ void add_bench(CLI::App& app) {
     app.add_option("--model", a.models,
                    "Model files baked over the settings grid besides the "
                    "generated room (imported as by abrad import)");
-    app.add_option("--scene", a.scene, "Scene file (TOML) applied to the --model files");
+    app.add_option("--building", a.buildings,
+                   "Model files of whole buildings, each baked once with the bake options "
+                   "(default: the full bake) and reported with time per stage, CPU, peak "
+                   "memory, triangles out and energy balance (imported as by abrad import)");
+    app.add_option("--scene", a.scene,
+                   "Scene file (TOML) applied to the --model and --building files");
     app.add_flag("--no-room", a.no_room, "Leave out the generated one-room scene from the grid");
     app.add_flag("--quick", a.quick,
                  "A small grid (Z-buffer R50, A-buffer R26 4x4 and R50 8x8; DM off "
@@ -140,8 +147,11 @@ int run_bench(const Invocation& call) {
     for (int i = 0; i < call.argc; ++i)
         o.command += (i ? " " : "") + std::string(i ? call.argv[i] : "abrad");
     o.scenes = bench_scenes(a);
-    if (o.scenes.empty() && o.sizes.empty() && o.light_counts.empty())
-        bad_input("nothing to run: give --model, --sizes or --light-counts, or drop --no-room");
+    for (const std::string& b : a.buildings) o.buildings.push_back(import_scene(a, b));
+    if (o.scenes.empty() && o.buildings.empty() && o.sizes.empty() && o.light_counts.empty())
+        bad_input(
+            "nothing to run: give --model, --building, --sizes or --light-counts, or drop "
+            "--no-room");
     std::vector<tools::BenchRun> runs;
     try {
         runs = tools::run_bench(o);

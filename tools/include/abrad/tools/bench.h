@@ -25,6 +25,9 @@ struct BenchScene {
 struct BenchOptions {
     std::filesystem::path out;       ///< directory for CSV, PNG, Markdown, work database
     std::vector<BenchScene> scenes;  ///< baked over the whole settings grid
+    /// Whole buildings: each baked once with the `scaling` settings (the full default bake:
+    /// DM and converged interreflection), reported with the floors
+    std::vector<BenchScene> buildings;
     bool quick = false;              ///< a small grid (3 hemicubes, DM off/area, both shadings)
     std::vector<std::size_t> sizes;  ///< generated floors (target triangles) for the scaling curve
     std::vector<int> light_counts;   ///< lights per room for the light scaling, at `lights_at`
@@ -41,10 +44,11 @@ struct BenchOptions {
 /// One bake of the benchmark.
 struct BenchRun {
     std::string scene;
-    std::string kind;  ///< "grid" or "scaling"
+    std::string kind;  ///< "grid", "scaling", "lights" or "building"
     std::size_t triangles_in = 0, light_triangles = 0, triangles_out = 0;
     radiosity::BakeOptions options;
     double seconds_wall = 0.0;    ///< the bake call, wall clock
+    double seconds_cpu = 0.0;     ///< the bake call, CPU (user + system, all threads)
     double seconds_store = 0.0;   ///< writing the bake to the database
     double peak_rss_mb = 0.0;     ///< peak resident memory of the process during the bake and store
                                   ///< (sampled every 2 ms), MB
@@ -69,6 +73,10 @@ double hemicube_ff_error(radiosity::Visibility method, int resolution, int subpi
 /// Indices of the Pareto-best runs (no other run of the scene both faster and more
 /// accurate) among `runs` with a measured field error, by (seconds_wall, field_error).
 std::vector<std::size_t> pareto_front(const std::vector<BenchRun>& runs);
+
+/// Energy balance of a bake with interreflection: (absorbed + escaped + unshot) / emitted
+/// (1 when every watt is accounted for), or -1 without interreflection.
+double energy_closure(const visdb::BakeStats& statistics);
 
 /// Runs everything and writes DIR/bench.csv, DIR/scaling.csv, DIR/speed_error.png,
 /// DIR/scaling.png, DIR/summary.md. Progress lines go to stderr. Returns the runs.
