@@ -44,7 +44,8 @@ void add_probe(CLI::App& app) {
         ->required();
     app.add_option("--bake", s.bake,
                    "Bake whose interreflection to gather and unit to "
-                   "report (default: the latest; none: direct light)");
+                   "report (default: the latest; a database without bakes gives direct "
+                   "light only)");
 }
 
 int run_probe(const Invocation&) {
