@@ -85,6 +85,13 @@ std::uint32_t IndirectSolution::element_at(std::uint32_t region, int i, int j) c
     return it != cell_element.end() ? it->second : kNoElement;
 }
 
+std::uint32_t IndirectSolution::element_at(std::uint32_t region, const glm::dvec3& p) const {
+    const Grid& g = grids[region];
+    const int i = static_cast<int>(std::floor(glm::dot(p - g.origin, g.u) / element_size));
+    const int j = static_cast<int>(std::floor(glm::dot(p - g.origin, g.v) / element_size));
+    return element_at(region, i, j);
+}
+
 void IndirectSolution::index_cells() {
     m_tables.assign(grids.size(), {});
     std::vector<glm::ivec2> lo(grids.size(), glm::ivec2(std::numeric_limits<int>::max()));
@@ -182,12 +189,7 @@ class ElementTargets final : public Targets {
     std::uint32_t whole(std::uint32_t t) const override { return m_whole[t]; }
 
     std::uint32_t at(std::uint32_t t, const glm::dvec3& x) const override {
-        const std::uint32_t r = m_region[t];
-        const IndirectSolution::Grid& g = m_sol.grids[r];
-        const double size = m_sol.element_size;
-        const int i = static_cast<int>(std::floor(glm::dot(x - g.origin, g.u) / size));
-        const int j = static_cast<int>(std::floor(glm::dot(x - g.origin, g.v) / size));
-        const std::uint32_t e = m_sol.element_at(r, i, j);
+        const std::uint32_t e = m_sol.element_at(m_region[t], x);
         return e != IndirectSolution::kNoElement ? e : m_main[t];
     }
 
@@ -421,9 +423,8 @@ class Solver {
                 key_shooter.try_emplace(key, static_cast<std::uint32_t>(key_shooter.size()));
             m_shooter_of[e] = it->second;
         }
-        split_near_blocks(key_shooter);
+        const std::size_t ns = split_near_blocks(key_shooter);
         // Members of each shooter (CSR), ascending
-        const std::size_t ns = key_shooter.size() + m_split;
         m_member_start.assign(ns + 1, 0);
         for (const std::uint32_t s : m_shooter_of) ++m_member_start[s + 1];
         std::partial_sum(m_member_start.begin(), m_member_start.end(), m_member_start.begin());
@@ -464,8 +465,10 @@ class Solver {
     // A block shoots from one point, which misplaces the light of its cells by up to half its
     // diagonal: on a receiver nearer than the block's side (the foot of a wall on the floor,
     // a table on it) that is an error of ten percent and more. Blocks with a non-coplanar
-    // triangle in front of them within half a side shoot cell by cell instead.
-    void split_near_blocks(std::map<std::array<std::int64_t, 5>, std::uint32_t>& key_shooter) {
+    // triangle in front of them within half a side shoot cell by cell instead. Returns the
+    // number of shooters after the split.
+    std::size_t split_near_blocks(
+        const std::map<std::array<std::int64_t, 5>, std::uint32_t>& key_shooter) {
         const double side = m_options.shooter_cells * m_options.element_size;
         const double reach = 0.5 * side;
         const std::size_t nk = key_shooter.size();
@@ -496,9 +499,11 @@ class Solver {
                 near[s] = in_front;
             });
         }
+        std::size_t ns = nk;
         for (std::size_t e = 0; e < m_ne; ++e)
             if (near[m_shooter_of[e]] && members[m_shooter_of[e]].front() != e)
-                m_shooter_of[e] = static_cast<std::uint32_t>(nk + m_split++);
+                m_shooter_of[e] = static_cast<std::uint32_t>(ns++);
+        return ns;
     }
 
     std::span<const std::uint32_t> members_of(std::uint32_t s) const {
@@ -507,11 +512,7 @@ class Solver {
 
     // True when point p of region r's plane lies in a cell whose element belongs to shooter s
     bool on_member(std::uint32_t r, const glm::dvec3& p, std::uint32_t s) const {
-        const IndirectSolution::Grid& g = m_sol.grids[r];
-        const double size = m_options.element_size;
-        const int i = static_cast<int>(std::floor(glm::dot(p - g.origin, g.u) / size));
-        const int j = static_cast<int>(std::floor(glm::dot(p - g.origin, g.v) / size));
-        const std::uint32_t e = m_sol.element_at(r, i, j);
+        const std::uint32_t e = m_sol.element_at(r, p);
         return e != IndirectSolution::kNoElement && m_shooter_of[e] == s;
     }
 
@@ -752,7 +753,6 @@ class Solver {
     std::vector<ShooterFrame> m_shooters;                  // each shooter's point and normal
     std::vector<std::uint32_t> m_shooter_of;               // per element
     std::vector<std::uint32_t> m_member_start, m_members;  // each shooter's elements
-    std::size_t m_split = 0;                               // shooters made by splitting blocks
     std::vector<visdb::Rgb> m_H, m_r, m_B;
     std::vector<Row> m_rows;
     std::size_t m_cache_bytes = 0;

@@ -42,8 +42,9 @@ bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
     return lo < -eps && hi > eps;
 }
 
-// A shadow segment of one light on receiver triangle j, with the light's unoccluded
-// irradiance along it (the most it can change the light there: the jump it may mark).
+// A shadow segment of one light on receiver triangle j, with the light's largest unoccluded
+// irradiance on the receiver and the segment (the most it can change the light there: the
+// jump the segment may mark).
 struct LitSegment {
     std::uint32_t j;
     ShadowSegment segment;

@@ -122,6 +122,8 @@ struct IndirectSolution {
     /// its cells' bounding rectangle (the hash map for regions whose rectangle is mostly
     /// empty). The hemicubes ask this for every fragment of a triangle larger than a cell.
     std::uint32_t element_at(std::uint32_t region, int i, int j) const;
+    /// The element of the cell holding point `p` of `region`'s plane, or kNoElement.
+    std::uint32_t element_at(std::uint32_t region, const glm::dvec3& p) const;
     static constexpr std::uint32_t kNoElement = 0xFFFFFFFFu;
     /// Builds the dense tables from `elements` (after the elements are made).
     void index_cells();
