@@ -163,7 +163,7 @@ namespace abrad::radiosity {
 class IndirectField {
   public:
     /// `mesh` is a bake of `scene` (its triangle_surface indexes scene.surfaces).
-    IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& mesh, int resolution = 200);
+    IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& mesh, int resolution = 64);
 
     /// Irradiance (RGB) at `x` on a plane with unit normal `n`, from reflecting surfaces.
     visdb::Rgb irradiance(const glm::dvec3& x, const glm::dvec3& n) const;
