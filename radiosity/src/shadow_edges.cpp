@@ -654,7 +654,7 @@ std::vector<ShadowSegment> merge(const Context& c, const std::vector<ShadowSegme
 
 std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, const Patch& receiver,
                                         std::span<const Patch* const> occluders, double min_length,
-                                        ShadowStats* stats) {
+                                        ShadowStats* stats, const EmitterEdges& emitter) {
     ShadowStats st;
     std::vector<ShadowSegment> result;
     auto finish = [&](std::vector<ShadowSegment> r) {
@@ -713,12 +713,15 @@ std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, co
     if (model == LightModel::Centroid) {
         ev_events(c, (light.p[0] + light.p[1] + light.p[2]) / 3.0, groups, raw, st);
     } else {
-        for (const dvec3& L : light.p) ev_events(c, L, groups, raw, st);
+        for (int k = 0; k < 3; ++k)
+            if (!emitter.corner_inside(k)) ev_events(c, light.p[k], groups, raw, st);
     }
-    // VE events along each light edge
+    // VE events along each light edge on the emitter's boundary
     if (model == LightModel::Area) {
         const std::vector<VRec> verts = occluder_vertices(c);
-        for (int e = 0; e < 3; ++e) ve_events(c, light.p[e], light.p[(e + 1) % 3], verts, raw, st);
+        for (int e = 0; e < 3; ++e)
+            if (!emitter.interior[static_cast<std::size_t>(e)])
+                ve_events(c, light.p[e], light.p[(e + 1) % 3], verts, raw, st);
     }
     return finish(merge(c, raw));
 }

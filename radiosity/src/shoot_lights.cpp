@@ -140,7 +140,7 @@ std::size_t edge_occluders(const BakeGeometry& g, const Bvh& bvh, std::uint32_t 
 void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
                           std::uint32_t l, const ShootResult& shot,
                           const std::vector<std::uint32_t>& receivers, LightModel model,
-                          OneLight& out) {
+                          const EmitterEdges& emitter, OneLight& out) {
     const Patch& light = g.patches[l];
     const double emittance = visdb::channel_mean(g.emittance[l]);
     // The regions the light's hemicube reached: the others get no light, so no shadow edge
@@ -181,7 +181,8 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                 // light's part changes by up to that much (at the light's own plane it is 0 on
                 // the edge and grows beside it)
                 double f_receiver = -1.0;
-                for (const ShadowSegment& seg : shadow_edges(light, model, r, occ, 1e-6, &s)) {
+                for (const ShadowSegment& seg :
+                     shadow_edges(light, model, r, occ, 1e-6, &s, emitter)) {
                     if (f_receiver < 0.0) {
                         f_receiver = visible_form_factor(centroid(r), rn, light, {});
                         for (const glm::dvec3& x : r.p)
@@ -205,7 +206,8 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
 
 // Shoots from light l and computes what the bake asks of it.
 OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
-                   const Hemicube& hemicube, std::uint32_t l, const BakeOptions& options) {
+                   const Hemicube& hemicube, std::uint32_t l, const EmitterEdges& emitter,
+                   const BakeOptions& options) {
     const bool exact = options.shading == Shading::Exact;
     OneLight out;
     const auto t0 = Clock::now();
@@ -234,8 +236,35 @@ OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh
     out.exact.seconds_cpu = seconds_since(t1);
 
     const auto t2 = Clock::now();
-    if (options.dm) project_shadow_edges(g, regions, bvh, l, shot, out.near, options.lights, out);
+    if (options.dm)
+        project_shadow_edges(g, regions, bvh, l, shot, out.near, options.lights, emitter, out);
     out.shadow.seconds_cpu = seconds_since(t2);
+    return out;
+}
+
+// Per light (index into g.lights): the edges it shares with another triangle of its emitter
+// (the same planar region, so one surface and one plane, and the same emittance), across
+// which the emitter's light is continuous: they cast no shadow edge.
+std::vector<EmitterEdges> emitter_edges(const BakeGeometry& g, const Regions& regions) {
+    std::vector<EmitterEdges> out(g.lights.size());
+    for (std::size_t li = 0; li < g.lights.size(); ++li) {
+        const std::uint32_t l = g.lights[li];
+        const glm::u32vec3 t = g.mesh.triangles[l];
+        for (int e = 0; e < 3; ++e) {
+            const std::uint32_t a = t[e], b = t[(e + 1) % 3];
+            for (std::uint32_t k = g.incident_start[a]; k < g.incident_start[a + 1]; ++k) {
+                const std::uint32_t o = g.incident[k];
+                if (o == l || regions.of_triangle[o] != regions.of_triangle[l] ||
+                    g.emittance[o] != g.emittance[l])
+                    continue;
+                const glm::u32vec3 u = g.mesh.triangles[o];
+                if (u.x == b || u.y == b || u.z == b) {
+                    out[li].interior[static_cast<std::size_t>(e)] = true;
+                    break;
+                }
+            }
+        }
+    }
     return out;
 }
 
@@ -278,10 +307,12 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     std::size_t done = 0;
     std::vector<LitSegment> lit;
     if (progress) progress("shoot", 0, g.lights.size());
+    const std::vector<EmitterEdges> emitter =
+        options.dm ? emitter_edges(g, regions) : std::vector<EmitterEdges>(g.lights.size());
 
     tbb::parallel_for(std::size_t{0}, g.lights.size(), [&](std::size_t li) {
         const std::uint32_t l = g.lights[li];
-        const OneLight one = shoot_one(g, regions, bvh, hemicube, l, options);
+        const OneLight one = shoot_one(g, regions, bvh, hemicube, l, emitter[li], options);
         // The light's receivers and their vertices are the only non-zero entries
         std::lock_guard lock(accumulate);
         for (const std::uint32_t j : one.near) shots.triangle_irradiance[j] += one.triangle[j];

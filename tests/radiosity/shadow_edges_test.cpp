@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <glm/geometric.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace abrad::radiosity {
@@ -214,6 +215,63 @@ TEST(ShadowEdges, VerticesAndAreaModels) {
                 << dump(area);
     // By hand: light edge (0.1, -0.4, 3) - (0.3, 0.2, 3), vertex (0.2, 0.1, 1)
     EXPECT_EQ(count_segment(area, {0.25, 0.35, 0}, {0.15, 0.05, 0}, 1e-9), 1) << dump(area);
+}
+
+TEST(ShadowEdges, PanelDiagonalCastsNothing) {
+    // A 1 x 1 m panel at z = 3 facing down, made of two triangles that share the diagonal
+    // a-b; a plate at z = 1. The panel's light is continuous across its diagonal, so no wedge
+    // through the diagonal and a plate vertex may give a segment once the diagonal is marked
+    // interior; unmarked, those wedges are cast (per triangle, the diagonal is an edge).
+    const dvec3 a{-0.5, -0.5, 3}, b{0.5, 0.5, 3};
+    const Patch first = tri(a, {-0.5, 0.5, 3}, b);   // edge 2 is b-a
+    const Patch second = tri(a, b, {0.5, -0.5, 3});  // edge 0 is a-b
+    const dvec3 v[4] = {{0.13, -0.21, 1}, {0.71, -0.17, 1}, {0.67, 0.38, 1}, {0.09, 0.33, 1}};
+    const std::vector<Patch> occ{tri(v[0], v[1], v[2]), tri(v[0], v[2], v[3])};
+    const auto on_diagonal_wedge = [&](const std::vector<ShadowSegment>& s) {
+        int n = 0;
+        for (const dvec3& w : v) {
+            const dvec3 nw = glm::normalize(glm::cross(b - a, w - a));
+            for (const auto& g : s)
+                n += std::abs(glm::dot(g.a - a, nw)) < 1e-9 &&
+                     std::abs(glm::dot(g.b - a, nw)) < 1e-9;
+        }
+        return n;
+    };
+    std::vector<ShadowSegment> plain, marked;
+    for (const auto& [light, diagonal] : {std::pair{first, 2}, std::pair{second, 0}}) {
+        for (const auto& g : cast(light, LightModel::Area, floor_big(), occ)) plain.push_back(g);
+        EmitterEdges emitter;
+        emitter.interior[static_cast<std::size_t>(diagonal)] = true;
+        std::vector<const Patch*> ptr;
+        for (const auto& o : occ) ptr.push_back(&o);
+        for (const auto& g :
+             shadow_edges(light, LightModel::Area, floor_big(), ptr, 1e-9, nullptr, emitter))
+            marked.push_back(g);
+    }
+    EXPECT_GE(on_diagonal_wedge(plain), 4) << dump(plain);
+    EXPECT_EQ(on_diagonal_wedge(marked), 0) << dump(marked);
+    // The panel's own corners and boundary edges still cast theirs: every segment kept is one
+    // the unmarked triangles cast too
+    EXPECT_LT(marked.size(), plain.size());
+    for (const auto& g : marked) EXPECT_GE(count_segment(plain, g.a, g.b, 1e-9), 1) << dump(marked);
+}
+
+TEST(ShadowEdges, CornerInsideAnEmitterCastsNothing) {
+    // A fan around the centre c of a disc-like emitter: the corner c of this triangle has both
+    // its edges inside the emitter, so it is no corner of the emitter and casts no EV event
+    const dvec3 c{0, 0, 3};
+    const Patch light = tri(c, {0.3, -0.5, 3}, {-0.3, -0.5, 3});  // faces down; c is corner 0
+    const std::vector<Patch> occ{tri({0.2, 0.1, 1}, {0.6, 0.2, 1}, {0.3, 0.5, 1})};
+    EmitterEdges emitter;
+    emitter.interior = {true, false, true};  // edges c-p1 and p2-c
+    ASSERT_TRUE(emitter.corner_inside(0));
+    std::vector<const Patch*> ptr{&occ[0]};
+    const auto s =
+        shadow_edges(light, LightModel::Vertices, floor_big(), ptr, 1e-9, nullptr, emitter);
+    ASSERT_EQ(s.size(), 6u) << dump(s);  // three occluder edges from each of p1 and p2
+    for (int e = 0; e < 3; ++e)
+        EXPECT_EQ(count_segment(s, proj(c, occ[0].p[e]), proj(c, occ[0].p[(e + 1) % 3]), 1e-9), 0)
+            << dump(s);
 }
 
 TEST(ShadowEdges, VeWedgeCutByOpaqueOccluder) {

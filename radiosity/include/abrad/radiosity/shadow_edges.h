@@ -4,6 +4,7 @@
 // receiver triangle's plane, clipped to the receiver, with the parts hidden by other opaque
 // occluders removed (translucent occluders let them pass).
 
+#include <array>
 #include <cstdint>
 #include <glm/vec3.hpp>
 #include <optional>
@@ -40,6 +41,21 @@ struct ShadowStats {
     ShadowStats& operator+=(const ShadowStats& o);
 };
 
+/// Which edges of a light triangle lie inside its emitter: edge e (from p[e] to p[e+1]) is
+/// interior when another triangle of the same uniform, planar emitter shares it (the two
+/// triangles of a rectangular panel share their diagonal). The emitter's light is continuous
+/// across such an edge, so it casts no shadow edge: no VE wedge along it, and no EV event from
+/// a corner whose two edges in this triangle are both interior (that corner is inside the
+/// emitter, or another triangle of the emitter, with a boundary edge there, casts the same
+/// events).
+struct EmitterEdges {
+    std::array<bool, 3> interior{false, false, false};
+    bool corner_inside(int k) const {
+        return interior[static_cast<std::size_t>((k + 2) % 3)] &&
+               interior[static_cast<std::size_t>(k)];
+    }
+};
+
 /// The shadow edges that `occluders` cast on `receiver` from `light` (front faces
 /// counter-clockwise; the light emits from its front). Only the part of the receiver in
 /// front of the light and facing it is considered. An occluder edge shared by two occluders
@@ -48,6 +64,7 @@ struct ShadowStats {
 /// the edge). Segments shorter than `min_length` metres are dropped.
 std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, const Patch& receiver,
                                         std::span<const Patch* const> occluders,
-                                        double min_length = 1e-9, ShadowStats* stats = nullptr);
+                                        double min_length = 1e-9, ShadowStats* stats = nullptr,
+                                        const EmitterEdges& emitter = {});
 
 }  // namespace abrad::radiosity
