@@ -9,6 +9,8 @@
 // published validations use and the tighter one abrad reaches. The tests print their tables:
 // `build/test/tests/radiosity/cie171_test` reproduces docs/validation.md.
 
+#include "cie171.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -30,97 +32,13 @@
 namespace abrad::radiosity {
 namespace {
 
-using abrad::testing::quad_grid;
-using glm::dvec3;
-
-constexpr double kPi = std::numbers::pi;
-constexpr double kPublished = 0.05;  // the tolerance per point of published validations
-
-// ---- References: closed forms, independent of abrad's code ----
-
-// Lambert's form factor from a differential area at x (unit normal n) to the planar polygon
-// `poly` lying wholly in front of it: 1/(2π) Σ θ_i n·û_i over its edges, θ_i the angle the edge
-// subtends at x and û_i the unit normal of the plane through x and the edge.
-double lambert_ff(const dvec3& x, const dvec3& n, const std::vector<dvec3>& poly) {
-    double sum = 0.0;
-    for (std::size_t i = 0; i < poly.size(); ++i) {
-        const dvec3 a = glm::normalize(poly[i] - x);
-        const dvec3 b = glm::normalize(poly[(i + 1) % poly.size()] - x);
-        const dvec3 c = glm::cross(a, b);
-        const double s = glm::length(c);
-        if (s == 0.0) continue;
-        sum += std::atan2(s, glm::dot(a, b)) * glm::dot(n, c / s);
-    }
-    return std::abs(sum) / (2.0 * kPi);
-}
-
-// Howell's C-11: differential area to a parallel a × b rectangle at distance c, the area's
-// normal through one corner.
-double howell_corner(double a, double b, double c) {
-    const double x = a / c, y = b / c;
-    const double sx = std::sqrt(1.0 + x * x), sy = std::sqrt(1.0 + y * y);
-    return (x / sx * std::atan(y / sx) + y / sy * std::atan(x / sy)) / (2.0 * kPi);
-}
-
-// The axis-aligned rectangle [x0,x1]×[y0,y1] at height z (a polygon).
-std::vector<dvec3> rect_z(double x0, double x1, double y0, double y1, double z) {
-    return {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}};
-}
-
-double rel_error(double value, double reference) { return value / reference - 1.0; }
-
-// "what (a, b)", two decimals.
-std::string label(const char* what, double a, double b) {
-    char s[64];
-    std::snprintf(s, sizeof s, "%s (%.2f, %.2f)", what, a, b);
-    return s;
-}
-
-// ---- Scenes ----
-
-// A quad surface whose front faces `inside` (as in indirect_test.cpp).
-visdb::Surface facing(const std::string& name, std::uint32_t material, dvec3 o, dvec3 u, dvec3 v,
-                      int n, const dvec3& inside) {
-    const dvec3 c = o + 0.5 * (u + v);
-    if (glm::dot(glm::cross(u, v), inside - c) < 0.0) {
-        o += u;
-        u = -u;
-    }
-    return quad_grid(name, material, o, u, v, n);
-}
-
-std::uint32_t add_material(visdb::Scene& s, const std::string& name, double rho,
-                           double emittance = 0.0) {
-    s.materials.push_back({name, visdb::Rgb(rho), visdb::Rgb(emittance), 1.0});
-    return static_cast<std::uint32_t>(s.materials.size() - 1);
-}
+using namespace cie171;  // NOLINT(google-build-using-namespace): the cases' shared parts
 
 // ---- Reading a bake ----
 
-// The exported field at p: the Gouraud (barycentric) interpolation of the vertex irradiance
-// (mean over RGB) of the bake triangle holding p whose front normal is n; nullopt off the mesh.
+// The exported field at p (mesh_checks.h).
 std::optional<double> gouraud_at(const visdb::Bake& b, const dvec3& p, const dvec3& n) {
-    const auto& m = b.mesh;
-    for (const auto& t : m.triangles) {
-        const dvec3 a = m.positions[t.x], e1 = m.positions[t.y] - a, e2 = m.positions[t.z] - a;
-        const dvec3 tn = glm::cross(e1, e2);
-        const double len = glm::length(tn);
-        if (len == 0.0 || glm::dot(dvec3(m.normals[t.x]), n) < 0.999) continue;
-        if (std::abs(glm::dot(tn / len, p - a)) > 1e-7) continue;
-        // Barycentric coordinates of p in the triangle's plane
-        const dvec3 d = p - a;
-        const double d11 = glm::dot(e1, e1), d12 = glm::dot(e1, e2), d22 = glm::dot(e2, e2);
-        const double d1 = glm::dot(d, e1), d2 = glm::dot(d, e2);
-        const double den = d11 * d22 - d12 * d12;
-        const double v = (d22 * d1 - d12 * d2) / den, w = (d11 * d2 - d12 * d1) / den;
-        if (v < -1e-9 || w < -1e-9 || v + w > 1.0 + 1e-9) continue;
-        auto h = [&](std::uint32_t i) {
-            const glm::vec3 x = m.irradiance[i];
-            return (double(x.x) + x.y + x.z) / 3.0;
-        };
-        return (1.0 - v - w) * h(t.x) + v * h(t.y) + w * h(t.z);
-    }
-    return std::nullopt;
+    return abrad::testing::gouraud_at(b.mesh, p, n);
 }
 
 // Area-weighted mean irradiance (mean over RGB) of the exported field over the whole mesh.
@@ -141,18 +59,6 @@ double mean_irradiance(const visdb::Bake& b, double* area_out = nullptr) {
 }
 
 // ---- One row of a case's table ----
-
-// A point with its reference and its tolerances (relative): the probe's, and the export's
-// tight one where abrad reaches one stably (0: the published 5 % only). `defect` names a known
-// defect of the default export at this point: its export is left to the defect's own test.
-struct Point {
-    std::string name;
-    ProbePoint p;
-    double reference;
-    double probe_tolerance = 1e-4;
-    double export_tight = 0.0;
-    const char* defect = nullptr;
-};
 
 struct Row {
     const Point* point;
@@ -229,10 +135,8 @@ TEST(Cie171, LambertFormFactorAgreesWithHowellsCornerFormula) {
 
 // ---- 5.3: a rectangular Lambertian area source ----
 
-// The 2 × 1 m emitter [-1,1]×[-0.5,0.5] at 3 m facing down, exitance M = 1000 W/m², over a
-// black 6 × 6 m floor and a black wall at x = 3 facing the emitter.
-constexpr double kM = 1000.0;
-
+// The 2 × 1 m emitter [-1,1]×[-0.5,0.5] at 3 m facing down, exitance M (kM), over a black
+// 6 × 6 m floor and a black wall at x = 3 facing the emitter.
 visdb::Scene area_source_scene() {
     visdb::Scene s;
     const auto black = add_material(s, "black", 0.0);
@@ -348,43 +252,6 @@ TEST(Cie171, Case54FluxBalanceOfABlackRoom) {
 }
 
 // ---- 5.6: an opaque obstruction between the source and the points ----
-
-// The 1 × 1 m source [-0.5,0.5]² at 3 m facing down (M = 1000 W/m²) over a black 4 × 4 m
-// floor, with a black opaque plate at 1.5 m (half way) over x < 0. From a floor point
-// (x0, y0, 0) the plate's edge x = 0 projects onto the source's plane at x = -x0: the point
-// sees the part x >= -x0 of the source (penumbra for |x0| < 0.5, umbra for x0 <= -0.5).
-visdb::Scene obstruction_scene() {
-    visdb::Scene s = {};
-    const auto black = add_material(s, "black", 0.0);
-    const auto light = add_material(s, "source", 0.0, kM);
-    const dvec3 mid(0, 0, 0.75);
-    s.surfaces.push_back(facing("floor", black, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 4, mid));
-    s.surfaces.push_back(
-        facing("plate", black, {-2, -2, 1.5}, {2, 0, 0}, {0, 4, 0}, 2, {0, 0, 3}));  // facing up
-    s.surfaces.push_back(
-        facing("source", light, {-0.5, -0.5, 3}, {1, 0, 0}, {0, 1, 0}, 1, {0, 0, 0}));
-    return s;
-}
-
-// The default export in the penumbra: the shadow edges are meshed, but between them the
-// field is refined only to the default 10 % (--refine-tolerance 0.1).
-constexpr const char* kRefinementInThePenumbra =
-    "5.6: export between refined vertices in the penumbra";
-
-std::vector<Point> obstruction_points() {
-    std::vector<Point> points;
-    for (const double y0 : {0.0, 0.3})
-        for (const double x0 : {-0.45, -0.25, 0.0, 0.25, 0.45, 0.75}) {
-            const dvec3 x(x0, y0, 0.0), n(0, 0, 1);
-            const double lo = std::max(-0.5, -x0);
-            points.push_back({label("floor", x0, y0),
-                              {x, n},
-                              kM * lambert_ff(x, n, rect_z(lo, 0.5, -0.5, 0.5, 3))});
-            if (x0 < 0.0 || (x0 == 0.25 && y0 == 0.3))
-                points.back().defect = kRefinementInThePenumbra;
-        }
-    return points;
-}
 
 TEST(Cie171, Case56Obstruction) {
     const visdb::Scene scene = obstruction_scene();
