@@ -1,7 +1,8 @@
 // CIE 171:2006 analytic test cases (docs/validation.md): 5.3 area source, 5.4 flux balance of a
 // black room, 5.6 obstruction, 5.7 diffuse reflection with an obstruction, 5.8 interreflections
-// in a closed room. Each case is built from the geometry the report describes, and its
-// reference is computed here from closed forms written out in this file (Lambert's
+// in a closed room. Each case is a scene testing what the report's case tests (the report's own
+// geometry where it is public, 5.8's; docs/validation.md states every geometry), and its
+// reference is computed from closed forms written out in cie171.h and here (Lambert's
 // point-to-polygon form factor, Howell's corner form factor as its check, the enclosure
 // relation Φ/(A(1−ρ)), a quadrature of the closed-form floor radiosity for 5.7), never from
 // abrad. Each point is checked on the probe (PointIrradiance, what `abrad probe` prints) and on
@@ -206,7 +207,8 @@ visdb::Scene cube_room(double rho) {
     s.surfaces.push_back(facing("wall +y", surface, {-2, 2, 0}, {4, 0, 0}, {0, 0, 4}, 4, mid));
     s.surfaces.push_back(facing("wall -x", surface, {-2, -2, 0}, {0, 4, 0}, {0, 0, 4}, 4, mid));
     s.surfaces.push_back(facing("wall +x", surface, {2, -2, 0}, {0, 4, 0}, {0, 0, 4}, 4, mid));
-    // Ceiling: a 4 × 4 grid of 1 m cells, 0.5 m offset so the centre cell is the source's hole
+    // Ceiling: cells between -2, -1.5, -0.5, 0.5, 1.5 and 2 m on both axes (1 m inside, 0.5 m
+    // along the walls) but the centre one, the source's hole
     visdb::Surface ceiling;
     ceiling.name = "ceiling";
     ceiling.material = surface;
