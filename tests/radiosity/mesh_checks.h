@@ -2,10 +2,12 @@
 // Checks on baked meshes shared by the radiosity and command-line tests.
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <glm/geometric.hpp>
 #include <map>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -59,6 +61,33 @@ inline double triangle_area(const visdb::BakeMesh& m, std::size_t t) {
     const auto& tri = m.triangles[t];
     return 0.5 * glm::length(glm::cross(m.positions[tri.y] - m.positions[tri.x],
                                         m.positions[tri.z] - m.positions[tri.x]));
+}
+
+/// The exported field at `p`: the Gouraud (barycentric) interpolation of the vertex
+/// irradiance (mean over RGB) of the triangle of `m` holding p (within 1e-7 m of its plane)
+/// whose front normal is `n`; nullopt when no triangle holds it.
+inline std::optional<double> gouraud_at(const visdb::BakeMesh& m, const glm::dvec3& p,
+                                        const glm::dvec3& n) {
+    for (const auto& t : m.triangles) {
+        const glm::dvec3 a = m.positions[t.x], e1 = m.positions[t.y] - a, e2 = m.positions[t.z] - a;
+        const glm::dvec3 tn = glm::cross(e1, e2);
+        const double len = glm::length(tn);
+        if (len == 0.0 || glm::dot(glm::dvec3(m.normals[t.x]), n) < 0.999) continue;
+        if (std::abs(glm::dot(tn / len, p - a)) > 1e-7) continue;
+        // Barycentric coordinates of p in the triangle's plane
+        const glm::dvec3 d = p - a;
+        const double d11 = glm::dot(e1, e1), d12 = glm::dot(e1, e2), d22 = glm::dot(e2, e2);
+        const double d1 = glm::dot(d, e1), d2 = glm::dot(d, e2);
+        const double den = d11 * d22 - d12 * d12;
+        const double v = (d22 * d1 - d12 * d2) / den, w = (d11 * d2 - d12 * d1) / den;
+        if (v < -1e-9 || w < -1e-9 || v + w > 1.0 + 1e-9) continue;
+        auto h = [&](std::uint32_t i) {
+            const glm::vec3 x = m.irradiance[i];
+            return (double(x.x) + x.y + x.z) / 3.0;
+        };
+        return (1.0 - v - w) * h(t.x) + v * h(t.y) + w * h(t.z);
+    }
+    return std::nullopt;
 }
 
 }  // namespace abrad::testing
