@@ -10,10 +10,10 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <sstream>
 
+#include "abrad/atomic_file.h"
 #include "abrad/export/image.h"
 #include "abrad/radiosity/grid.h"
 #include "cli_common.h"
@@ -183,13 +183,13 @@ void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visd
                                                v.e_max > 0.0 ? v.e_max : 1.0,
                                                bake.unit == "lux" ? "lux" : "W/m²");
         } catch (const std::exception& x) {
-            failure(png.string() + ": " + x.what());
+            failure(x.what());  // names the file
         }
         std::printf(
             "  grid '%s': %d x %d points at z %.3g m: E_avg %.4g, E_min %.4g, E_max %.4g %s, "
             "U0 %.3f (%s, %s, %.2f s)\n",
             g.name.c_str(), v.nx, v.ny, g.z, v.e_avg, v.e_min, v.e_max, bake.unit.c_str(), v.u0(),
-            csv.string().c_str(), png.filename().string().c_str(), seconds_since(t0));
+            csv.filename().string().c_str(), png.filename().string().c_str(), seconds_since(t0));
     }
 }
 
@@ -212,13 +212,11 @@ visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& optio
         bad_input(db + ": " + e.what());
     }
     if (!convergence_csv.empty()) {
-        std::ofstream out(convergence_csv);
+        std::ostringstream out;
         out << "shots,seconds,unshot_fraction\n";
         for (const auto& c : curve)
             out << c.shots << "," << c.seconds << "," << c.unshot_fraction << "\n";
-        if (!out)
-            throw CommandError{kExitFailure,
-                               convergence_csv + ": cannot write the convergence curve"};
+        write_file_atomically(convergence_csv, out.view());  // OutputError naming the file
     }
     b.created_at = utc_now();
     store.add_bake(b);
