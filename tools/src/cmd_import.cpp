@@ -76,13 +76,10 @@ visdb::Scene read_models(const ImportArgs& a) {
 
 void import_into(const visdb::Scene& scene, const std::string& db) {
     visdb::Store store = open_db(db, visdb::OpenMode::CreateOrOpen);
-    // The same file twice would put every face on top of itself (coplanar overlaps)
-    for (const visdb::Source& have : store.load_scene().sources)
-        for (const visdb::Source& add : scene.sources)
-            if (have.checksum == add.checksum)
-                bad_input(add.path + ": already imported into " + db + " as " + have.path +
-                          " (same FNV-1a checksum " + have.checksum + "); nothing written");
-    store.add_import(scene);
+    store.check_writable();
+    // The same file twice would put every face on top of itself (coplanar overlaps): refused
+    // inside the import's transaction, so two imports of one file at once store it once
+    store.add_import(scene, visdb::SameSource::Refuse);
     std::cout << "stored " << scene.surfaces.size() << " surfaces, " << scene.triangle_count()
               << " triangles in " << db << "\n";
 }
