@@ -19,11 +19,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cerrno>
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
@@ -589,13 +591,60 @@ auto& live(const ImplPtr& impl) {
     return *impl;
 }
 
+// Creates the database file `path` with the current schema, atomically: the schema is written
+// to a temporary beside it (`PATH.tmp-PID-N`), committed and closed, then hard-linked to `path`,
+// so a failure (a full disk) leaves no file at `path` for a later command to take for a
+// foreign one. When another process created `path` meanwhile, the link fails and its file is
+// kept. Errors name `path`; the temporary is removed either way.
+void create_database(const std::string& path) {
+    static std::atomic<unsigned> counter{0};  // only makes names unique within the process
+    const std::string tmp =
+        path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+    const auto remove_tmp = [&] {
+        std::remove(tmp.c_str());
+        std::remove((tmp + "-journal").c_str());
+    };
+    {
+        sqlite3* raw = nullptr;
+        const int rc =
+            sqlite3_open_v2(tmp.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+        DbHandle db(raw);
+        if (rc != SQLITE_OK) {
+            const int code = raw != nullptr ? sqlite3_extended_errcode(raw) : rc;
+            const std::string message = raw != nullptr ? sqlite3_errmsg(raw) : sqlite3_errstr(rc);
+            db.reset();
+            remove_tmp();
+            throw StoreError(path + ": cannot open: " + message, kind_of(code));
+        }
+        const Connection c(std::move(db), path);
+        sqlite3_extended_result_codes(c.get(), 1);
+        try {
+            c.exec("PRAGMA journal_mode = DELETE", "cannot select the rollback journal");
+            Transaction transaction(c, Transaction::Kind::Write);
+            migrate(c, 0);
+            transaction.commit();
+        } catch (...) {
+            remove_tmp();
+            throw;
+        }
+    }
+    // Give it its name unless another process was first (link never replaces a file)
+    if (::link(tmp.c_str(), path.c_str()) != 0 && errno != EEXIST) {
+        const int err = errno;
+        remove_tmp();
+        throw StoreError(path + ": cannot create: " + std::generic_category().message(err),
+                         StoreError::Kind::Failure);
+    }
+    remove_tmp();
+}
+
 }  // namespace
 
 Store Store::open(const std::string& path, OpenMode mode) {
     std::error_code ec;
-    if (mode != OpenMode::CreateOrOpen && !std::filesystem::exists(path, ec)) {
-        throw StoreError(path + ": no such database");
-    }
+    const bool exists = std::filesystem::exists(path, ec);
+    if (mode != OpenMode::CreateOrOpen && !exists) throw StoreError(path + ": no such database");
+    if (mode == OpenMode::CreateOrOpen && !exists) create_database(path);
 
     // Open the connection
     const int flags = mode == OpenMode::ReadOnly    ? SQLITE_OPEN_READONLY

@@ -73,9 +73,11 @@ inline constexpr int kSchemaVersion = 2;
 /// wait for it, and for readers to finish at COMMIT, up to the busy timeout.
 class Store {
   public:
-    /// Opens (or creates) `path`. Throws StoreError naming the path when the file is missing
-    /// (ReadOnly/ReadWrite), is not an abrad database, or has a newer schema version. A
-    /// connection waits up to 10 s for another process's lock (the environment variable
+    /// Opens (or creates) `path`. A new file is created whole or not at all: its schema is
+    /// written to a temporary beside it that gets the name once committed, so a failure (a full
+    /// disk: kind Failure) leaves no file at `path`. Throws StoreError naming the path when the
+    /// file is missing (ReadOnly/ReadWrite), is not an abrad database, or has a newer schema
+    /// version. A connection waits up to 10 s for another process's lock (the environment variable
     /// ABRAD_BUSY_TIMEOUT_MS overrides that), then fails with kind Failure.
     static Store open(const std::string& path, OpenMode mode);
 
