@@ -9,8 +9,9 @@
 //
 // The temporary: on Linux an unnamed file (O_TMPFILE) that gets the name
 // `PATH.tmp-<pid>-<n>` only when it is complete, just before the rename, so a process killed
-// while writing leaves nothing behind; where the file system has no O_TMPFILE, that name from
-// the start (a kill then leaves it behind; the pid and counter keep concurrent writers apart).
+// while writing leaves nothing behind; where the file system has no O_TMPFILE (or /proc is not
+// mounted), that name from the start (a kill then leaves it behind; the pid and counter keep
+// concurrent writers apart).
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -54,8 +55,12 @@ class BasicAtomicFile {
     explicit BasicAtomicFile(std::filesystem::path path) : m_path(std::move(path)) {
         const std::filesystem::path dir =
             m_path.has_parent_path() ? m_path.parent_path() : std::filesystem::path(".");
-        // Create an unnamed temporary, or a named one where O_TMPFILE is not supported
-        int fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+        // Create an unnamed temporary (it is named through /proc/self/fd), or a named one where
+        // O_TMPFILE or /proc is missing
+        int fd = -1;
+        errno = EOPNOTSUPP;
+        if (::access("/proc/self/fd", X_OK) == 0)
+            fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
         if (fd < 0 && (errno == EOPNOTSUPP || errno == EISDIR || errno == EINVAL)) {
             m_tmp = detail::temporary_name(m_path);
             fd = ::open(m_tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
