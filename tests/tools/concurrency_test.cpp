@@ -146,13 +146,16 @@ Result run_unprivileged(const std::string& args) {
 }
 
 // A database abrad may not write (the file read-only, or its folder, where SQLite needs its
-// journal) is refused before the bake: the scene has no lights, which the bake itself would
-// refuse as bad input (2), so exit status 1 shows the check came first.
-TEST_F(Concurrency, AReadOnlyDatabaseIsRefusedBeforeTheBake) {
+// journal) is refused before the bake and before an import: the scene has no lights and the
+// model is broken, which the bake and the import would refuse as bad input (2), so exit
+// status 1 shows the check came first.
+TEST_F(Concurrency, AReadOnlyDatabaseIsRefusedBeforeAnyWork) {
     const std::string dark =
         m_dir.write("dark.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
     ASSERT_EQ(run("import " + dark + " --db " + m_db).status, 0);
     ASSERT_EQ(run("bake --db " + m_db).status, 2);  // no lights: bad input, when writable
+    const std::string broken = m_dir.write("broken.obj", "v 0 0 0\nf 1 2 3\n");
+    ASSERT_EQ(run("import " + broken + " --db " + m_db).status, 2);  // indices out of range
     if (geteuid() == 0 && system("setpriv --reuid=65534 --regid=65534 --clear-groups true") != 0)
         GTEST_SKIP() << "running as root without setpriv to drop privileges";
     const std::string before = file_bytes(m_db);
@@ -175,12 +178,16 @@ TEST_F(Concurrency, AReadOnlyDatabaseIsRefusedBeforeTheBake) {
         fs::permissions(dir, c.dir_perms);
         fs::permissions(m_db, c.file_perms);
         const Result r = run_unprivileged("bake --db " + m_db);
+        // An import is refused before its model is read (this one is broken: bad input)
+        const Result import = run_unprivileged("import " + broken + " --db " + m_db);
         fs::permissions(dir, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
                                  fs::perms::others_read | fs::perms::others_exec);
         fs::permissions(m_db, fs::perms::owner_read | fs::perms::owner_write |
                                   fs::perms::group_read | fs::perms::others_read);
         EXPECT_EQ(r.status, 1) << r.output;
         EXPECT_NE(r.output.find(m_db + c.message), std::string::npos) << r.output;
+        EXPECT_EQ(import.status, 1) << import.output;
+        EXPECT_NE(import.output.find(m_db + c.message), std::string::npos) << import.output;
         EXPECT_EQ(file_bytes(m_db), before);
     }
 }
