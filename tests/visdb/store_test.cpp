@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "file_size_limit.h"
 #include "temp_dir.h"
 
 namespace {
@@ -820,6 +821,24 @@ TEST(Store, SameSourceIsRefusedWhenAsked) {
     EXPECT_EQ(read_file(path), before);
     store.add_import(scene);  // SameSource::Allow
     EXPECT_EQ(store.load_scene().sources.size(), 2 * scene.sources.size());
+}
+
+// A new database is created whole or not at all: on a full disk (a file-size limit) the open
+// fails as a failure of the system and leaves nothing in the folder, not an empty file.
+TEST(Store, CreationOnAFullDiskLeavesNoFile) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("new.visdb");
+    try {
+        const abrad::testing::FileSizeLimit full(1024);
+        (void)visdb::Store::open(path, OpenMode::CreateOrOpen);
+        ADD_FAILURE() << "created a database on a full disk";
+    } catch (const StoreError& e) {
+        EXPECT_EQ(e.kind(), StoreError::Kind::Failure) << e.what();
+        EXPECT_EQ(std::string(e.what()).rfind(path + ": ", 0), 0u) << e.what();
+    }
+    EXPECT_EQ(dir.entry_count(), 0u);
+    visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(make_scene());  // with room
+    EXPECT_EQ(dir.entry_count(), 1u);
 }
 
 TEST(Store, CheckWritableRefusesAReadOnlyStore) {
