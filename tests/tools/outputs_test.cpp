@@ -115,6 +115,8 @@ TEST_F(Outputs, AFailedRunLeavesThePreviousResults) {
     ASSERT_EQ(before.count("paper_occluder.visdb"), 1u);
     ASSERT_EQ(before.count("paper_occluder.ply"), 1u);
 
+    // A killed run's staging folder (no such process) is cleared; a failed run leaves none
+    fs::create_directories(out / ".abrad-run-2147483647" / "left");
     const Result r = run(args + " --name second");
     EXPECT_EQ(r.status, 1) << r.output;
     EXPECT_NE(r.output.find(png.string() + ": cannot write: "), std::string::npos) << r.output;
