@@ -9,6 +9,7 @@
 #include <glm/common.hpp>
 #include <limits>
 #include <map>
+#include <sstream>
 #include <utility>
 
 #include "abrad/export/text.h"
@@ -172,20 +173,14 @@ std::size_t write_gltf(const std::filesystem::path& path, const visdb::Scene& sc
     model.scenes.push_back(sc);
     model.defaultScene = 0;
 
-    // Write beside and rename, as the other writers do
-    const std::filesystem::path tmp = path.string() + ".tmp" + ext;
+    // Serialise in memory, then write beside and rename, as the other writers do
+    std::ostringstream bytes(std::ios::binary);
     tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToFile(&model, tmp.string(), true, true, !binary, binary)) {
-        std::error_code ec;
-        std::filesystem::remove(tmp, ec);
+    if (!writer.WriteGltfSceneToStream(&model, bytes, !binary, binary) || !bytes)
         detail::fail(path, "cannot write glTF");
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        detail::fail(path, "cannot write: " + ec.message());
-    }
+    detail::AtomicFile file(path);
+    file.write(bytes.view());
+    file.commit();
     return transcoded;
 }
 

@@ -2,6 +2,7 @@
 
 #include "abrad/export/image.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
@@ -16,6 +17,7 @@
 #include <limits>
 #include <sstream>
 
+#include "abrad/atomic_file.h"
 #include "abrad/export/writers.h"
 
 namespace abrad::exporter {
@@ -176,6 +178,12 @@ void write_image(const fs::path& path, int width, int height, std::span<const fl
     auto out = OIIO::ImageOutput::create(path.string());
     if (!out)
         fail(path, "cannot write: no image format for '" + ext + "' (" + OIIO::geterror() + ")");
+    // Encode into memory (OpenImageIO's writers do not all report failed writes), then write
+    // the bytes beside the file and rename, as the other writers do
+    if (!out->supports("ioproxy"))
+        fail(path, "cannot write: the '" + ext + "' writer cannot encode into memory");
+    OIIO::Filesystem::IOVecOutput encoded;
+    if (!out->set_ioproxy(&encoded)) fail(path, "cannot write: " + out->geterror());
 
     if (is_linear_format(ext)) {
         // Linear formats keep the values; EXR as half float
@@ -196,6 +204,11 @@ void write_image(const fs::path& path, int width, int height, std::span<const fl
             fail(path, "cannot write: " + out->geterror());
     }
     if (!out->close()) fail(path, "cannot write: " + out->geterror());
+    const std::vector<unsigned char>& data = encoded.buffer();
+    if (data.empty()) fail(path, "cannot write: the image encoded to nothing");
+    BasicAtomicFile<ExportError> file(path);
+    file.write({reinterpret_cast<const char*>(data.data()), data.size()});
+    file.commit();
 }
 
 Image read_image(const fs::path& path) {

@@ -1,19 +1,16 @@
 #pragma once
-// Private helpers of the writers: mesh validation, number formatting, and an output file
-// that is written to `PATH.tmp` and renamed to `PATH` only when every byte reached the disk.
+// Private helpers of the writers: mesh validation, number formatting, and their output file
+// (abrad/atomic_file.h with ExportError).
 
-#include <cerrno>
 #include <charconv>
 #include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <string>
 #include <string_view>
-#include <system_error>
-#include <utility>
 
+#include "abrad/atomic_file.h"
 #include "abrad/export/writers.h"
 
 namespace abrad::exporter::detail {
@@ -90,77 +87,9 @@ inline std::string sanitise_name(std::string_view name) {
     return out;
 }
 
-/// A file written to `PATH.tmp` and renamed to `PATH` by commit(). Destroying it without a
-/// successful commit() removes the temporary, so a failure never leaves a half file at
-/// `PATH` (nor a stray `PATH.tmp`). Errors are ExportError "PATH: cannot write: <strerror>".
-class AtomicFile {
-  public:
-    explicit AtomicFile(std::filesystem::path path)
-        : m_path(std::move(path)), m_tmp(m_path.string() + ".tmp") {
-        errno = 0;
-        m_file = std::fopen(m_tmp.c_str(), "wb");
-        if (m_file == nullptr) fail_io(errno);
-    }
-    AtomicFile(const AtomicFile&) = delete;
-    AtomicFile& operator=(const AtomicFile&) = delete;
-    ~AtomicFile() {
-        if (m_file != nullptr) std::fclose(m_file);
-        if (!m_committed) {
-            std::error_code ec;
-            std::filesystem::remove(m_tmp, ec);
-        }
-    }
-
-    /// Writes `bytes` (buffered by stdio).
-    void write(std::string_view bytes) {
-        if (bytes.empty()) return;
-        errno = 0;
-        if (std::fwrite(bytes.data(), 1, bytes.size(), m_file) != bytes.size()) fail_io(errno);
-    }
-
-    /// Writes `buffer` once it holds at least `threshold` bytes, then clears it.
-    void write_if_full(std::string& buffer, std::size_t threshold = std::size_t{1} << 20) {
-        if (buffer.size() >= threshold) {
-            write(buffer);
-            buffer.clear();
-        }
-    }
-
-    /// Flushes and closes the temporary; the file is complete but not yet at `PATH`.
-    void close() {
-        if (m_file == nullptr) return;
-        errno = 0;
-        const bool flushed = std::fflush(m_file) == 0;
-        const int flush_errno = errno;
-        errno = 0;
-        const bool closed = std::fclose(m_file) == 0;
-        m_file = nullptr;
-        if (!flushed) fail_io(flush_errno);
-        if (!closed) fail_io(errno);
-    }
-
-    /// Closes the temporary and renames it to `PATH`.
-    void commit() {
-        close();
-        std::error_code ec;
-        std::filesystem::rename(m_tmp, m_path, ec);
-        if (ec) fail(m_path, "cannot write: " + ec.message());
-        m_committed = true;
-    }
-
-    const std::filesystem::path& path() const { return m_path; }
-
-  private:
-    [[noreturn]] void fail_io(int err) const {
-        // strerror text, without strerror's shared buffer
-        fail(m_path, "cannot write: " + (err != 0 ? std::generic_category().message(err)
-                                                  : std::string("unknown I/O error")));
-    }
-
-    std::filesystem::path m_path;
-    std::filesystem::path m_tmp;
-    std::FILE* m_file = nullptr;
-    bool m_committed = false;
-};
+/// The writers' output file (abrad/atomic_file.h): a temporary beside `PATH`, renamed to
+/// `PATH` by commit() once every byte reached the disk; errors are ExportError
+/// "PATH: cannot write: <strerror>", and a failure leaves an existing file as it was.
+using AtomicFile = BasicAtomicFile<ExportError>;
 
 }  // namespace abrad::exporter::detail

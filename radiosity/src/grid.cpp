@@ -8,6 +8,9 @@
 #include <fstream>
 #include <glm/geometric.hpp>
 #include <numeric>
+#include <sstream>
+
+#include "abrad/atomic_file.h"
 
 namespace abrad::radiosity {
 
@@ -49,7 +52,7 @@ GridValues evaluate_grid(const PointIrradiance& field, const visdb::CalculationG
 }
 
 void write_grid_csv(const std::filesystem::path& path, const GridValues& grid) {
-    std::ofstream out(path);
+    std::ostringstream out;
     out << "x,y,z,illuminance,irradiance_r,irradiance_g,irradiance_b\n";
     out.precision(9);
     for (std::size_t k = 0; k < grid.points.size(); ++k) {
@@ -58,7 +61,7 @@ void write_grid_csv(const std::filesystem::path& path, const GridValues& grid) {
         out << x.x << "," << x.y << "," << x.z << "," << grid.value[k] << "," << h.x << "," << h.y
             << "," << h.z << "\n";
     }
-    if (!out) throw std::runtime_error(path.string() + ": cannot write the grid values");
+    write_file_atomically(path, out.view());
 }
 
 namespace {

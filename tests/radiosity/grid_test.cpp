@@ -9,7 +9,9 @@
 #include <fstream>
 #include <string>
 
+#include "abrad/atomic_file.h"
 #include "abrad/radiosity/form_factor.h"
+#include "file_size_limit.h"
 #include "scenes.h"
 #include "temp_dir.h"
 
@@ -116,6 +118,21 @@ TEST(Grid, CsvHasOneLinePerPoint) {
     while (std::getline(in, line)) ++rows;
     EXPECT_EQ(rows, 2);
     EXPECT_THROW(write_grid_csv("/nonexistent-dir/grid.csv", v), std::runtime_error);
+
+    // On a full disk (a file-size limit): an error naming the file, the old file as it was
+    const std::string old = abrad::testing::file_bytes(csv);
+    std::string message;
+    {
+        const abrad::testing::FileSizeLimit full(16);  // bytes
+        try {
+            write_grid_csv(csv, v);
+        } catch (const abrad::OutputError& e) {
+            message = e.what();
+        }
+    }
+    EXPECT_EQ(message, csv.string() + ": cannot write: File too large");
+    EXPECT_EQ(abrad::testing::file_bytes(csv), old);
+    EXPECT_EQ(dir.entry_count(), 1u);
 }
 
 // Probe-point files in a scratch folder of the test's own.

@@ -1,6 +1,6 @@
 // Exit statuses through the command line: 1 for failures of the system (a database locked by
-// another writer, a directory that does not exist), 2 for bad input (a file that is not an
-// abrad database). A failed command leaves the database as it was.
+// another writer, a directory that does not exist, a full disk), 2 for bad input (a file that is
+// not an abrad database). A failed command leaves the database as it was.
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -12,6 +12,7 @@
 #include <string>
 
 #include "abrad/visdb/store.h"
+#include "file_size_limit.h"
 #include "run_abrad.h"
 #include "temp_dir.h"
 
@@ -68,6 +69,35 @@ TEST_F(ExitStatus, ADatabaseInAMissingDirectoryIsAFailure) {
     EXPECT_EQ(r.status, 1) << r.output;
     EXPECT_NE(r.output.find(db.string() + ": cannot open"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(db));
+}
+
+// A full disk (a file-size limit stands in for it) is a failure of the system, exit 1 naming
+// the database: an import into a new database leaves no file behind (which a later command
+// would take for a foreign file, bad input), a bake leaves the database as it was.
+TEST_F(ExitStatus, AFullDiskIsAFailureAndLeavesNoHalfDatabase) {
+    const fs::path db = path("room.visdb");
+    abrad::testing::Result r;
+    {
+        const abrad::testing::FileSizeLimit full(4096);  // bytes: less than the empty schema
+        r = run("import " + model() + " --db " + db.string());
+    }
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find(db.string() + ": "), std::string::npos) << r.output;
+    EXPECT_EQ(m_dir.entry_count(), 0u);  // no database, no temporary, no journal
+    const Result none = run("bake --db " + db.string());
+    EXPECT_EQ(none.status, 2) << none.output;
+    EXPECT_NE(none.output.find("no such database"), std::string::npos) << none.output;
+
+    ASSERT_EQ(run("import " + model() + " --db " + db.string()).status, 0);
+    const std::string before = file_bytes(db);
+    {
+        const abrad::testing::FileSizeLimit full(before.size());  // the bake cannot grow it
+        r = run("bake --bounces 0 --dm off --db " + db.string());
+    }
+    EXPECT_EQ(r.status, 1) << r.output;
+    EXPECT_NE(r.output.find(db.string() + ": "), std::string::npos) << r.output;
+    EXPECT_EQ(file_bytes(db), before);
+    EXPECT_EQ(m_dir.entry_count(), 1u);
 }
 
 TEST_F(ExitStatus, AFileThatIsNotADatabaseIsBadInput) {

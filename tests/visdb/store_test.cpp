@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "file_size_limit.h"
 #include "temp_dir.h"
 
 namespace {
@@ -776,6 +777,80 @@ TEST(Store, ReadOnlyStoreRefusesWrites) {
     expect_store_error([&] { store.add_import(make_scene()); }, {path, "read-only"});
     expect_store_error([&] { store.add_bake(make_bake("x", 1, 1.0f)); }, {path, "read-only"});
     EXPECT_EQ(read_file(path), before);
+}
+
+// Unnamed bakes are numbered inside the write transaction: the number after the count of
+// bakes that no bake has, so a numbered bake never replaces one, whichever connection wrote it.
+TEST(Store, NumberedBakesTakeFreeNamesAndReplaceNone) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("numbered.visdb");
+    auto a = visdb::Store::open(path, OpenMode::CreateOrOpen);
+    auto b = visdb::Store::open(path, OpenMode::ReadWrite);
+    a.add_bake(make_bake("bake-2", 1, 1.0f));
+    EXPECT_EQ(a.add_numbered_bake(make_bake("", 1, 2.0f)), "bake-3");  // bake-2 is taken
+    EXPECT_EQ(b.add_numbered_bake(make_bake("ignored", 1, 3.0f)), "bake-4");
+    EXPECT_EQ(a.add_numbered_bake(make_bake("", 1, 4.0f)), "bake-5");
+    std::vector<std::string> names;
+    for (const auto& summary : b.list_bakes()) names.push_back(summary.name);
+    EXPECT_EQ(names, (std::vector<std::string>{"bake-2", "bake-3", "bake-4", "bake-5"}));
+    EXPECT_FLOAT_EQ(a.load_bake("bake-4").mesh.radiosity.front().x,
+                    make_bake("", 1, 3.0f).mesh.radiosity.front().x);
+}
+
+// A source whose checksum is stored already is refused inside the import's transaction when
+// asked, naming both paths; nothing is written. Allowed by default.
+TEST(Store, SameSourceIsRefusedWhenAsked) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("twice.visdb");
+    auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
+    const visdb::Scene scene = make_scene();
+    ASSERT_FALSE(scene.sources.empty());
+    store.add_import(scene, visdb::SameSource::Refuse);
+    const std::string before = read_file(path);
+    try {
+        store.add_import(scene, visdb::SameSource::Refuse);
+        ADD_FAILURE() << "imported the same source twice";
+    } catch (const StoreError& e) {
+        EXPECT_EQ(e.kind(), StoreError::Kind::BadInput);
+        const std::string what = e.what();
+        EXPECT_NE(what.find(path + ": " + scene.sources.front().path + ": already imported as " +
+                            scene.sources.front().path),
+                  std::string::npos)
+            << what;
+    }
+    EXPECT_EQ(read_file(path), before);
+    store.add_import(scene);  // SameSource::Allow
+    EXPECT_EQ(store.load_scene().sources.size(), 2 * scene.sources.size());
+}
+
+// A new database is created whole or not at all: on a full disk (a file-size limit) the open
+// fails as a failure of the system and leaves nothing in the folder, not an empty file.
+TEST(Store, CreationOnAFullDiskLeavesNoFile) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("new.visdb");
+    try {
+        const abrad::testing::FileSizeLimit full(1024);
+        (void)visdb::Store::open(path, OpenMode::CreateOrOpen);
+        ADD_FAILURE() << "created a database on a full disk";
+    } catch (const StoreError& e) {
+        EXPECT_EQ(e.kind(), StoreError::Kind::Failure) << e.what();
+        EXPECT_EQ(std::string(e.what()).rfind(path + ": ", 0), 0u) << e.what();
+    }
+    EXPECT_EQ(dir.entry_count(), 0u);
+    visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(make_scene());  // with room
+    EXPECT_EQ(dir.entry_count(), 1u);
+}
+
+TEST(Store, CheckWritableRefusesAReadOnlyStore) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("check.visdb");
+    visdb::Store::open(path, OpenMode::CreateOrOpen).check_writable();  // no throw
+    try {
+        visdb::Store::open(path, OpenMode::ReadOnly).check_writable();
+        ADD_FAILURE() << "a read-only store passed check_writable";
+    } catch (const StoreError& e) {
+        EXPECT_EQ(e.kind(), StoreError::Kind::Failure) << e.what();
+    }
 }
 
 TEST(Store, MovedStoreKeepsWorking) {

@@ -23,6 +23,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "abrad/atomic_file.h"
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/field_error.h"
 #include "abrad/radiosity/form_factor.h"
@@ -220,12 +221,11 @@ BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions
 }
 
 void write_csv(const fs::path& path, const std::vector<BenchRun>& runs, const std::string& kind) {
-    std::ofstream f(path);
-    if (!f) throw std::runtime_error(path.string() + ": cannot write");
+    std::ostringstream f;
     f << kCsvHeader << "\n";
     for (const BenchRun& r : runs)
         if (r.kind == kind) f << csv_row(r) << "\n";
-    if (!f) throw std::runtime_error(path.string() + ": write failed");
+    write_file_atomically(path, f.view());
 }
 
 // A family of settings for the plot's colours.
@@ -247,7 +247,7 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
     std::vector<std::string> made;
     // Speed against error: one panel per scene, colour by family, the Pareto front as a line
     {
-        std::ofstream gp(out / "speed_error.gp");
+        std::ostringstream gp;
         gp << "set terminal pngcairo size " << 640 * std::max<std::size_t>(1, scene_names.size())
            << ",520 font 'sans,10'\nset output '" << (out / "speed_error.png").string() << "'\n"
            << "set multiplot layout 1," << std::max<std::size_t>(1, scene_names.size()) << "\n"
@@ -260,7 +260,7 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
                 if (r.kind == "grid" && r.scene == scene_names[si] && r.field_error > 0.0)
                     mine.push_back(r);
             const fs::path data = out / ("speed_error_" + std::to_string(si) + ".dat");
-            std::ofstream d(data);
+            std::ostringstream d;
             for (int fam = 0; fam < 8; ++fam) {
                 d << "# " << kFamilyNames[fam] << "\n";
                 for (const BenchRun& r : mine)
@@ -275,6 +275,7 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
             });
             for (std::size_t i : front)
                 d << mine[i].seconds_wall << " " << mine[i].field_error << "\n";
+            write_file_atomically(data, d.view());
             gp << "set title '" << scene_names[si] << "' noenhanced\nplot ";
             for (int fam = 0; fam < 8; ++fam)
                 gp << "'" << data.string() << "' index " << fam
@@ -283,11 +284,12 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
                << "' index 8 with linespoints lw 2 pt 6 ps 1.5 lc 'black' title 'Pareto front'\n";
         }
         gp << "unset multiplot\n";
+        write_file_atomically(out / "speed_error.gp", gp.view());
     }
     // Scaling: time and peak memory against triangles, and time against light triangles
     bool scaling = false;
     {
-        std::ofstream d(out / "scaling.dat");
+        std::ostringstream d;
         d << "# triangles_in seconds_wall peak_rss_mb light_triangles\n";
         for (const BenchRun& r : runs)
             if (r.kind == "scaling") {
@@ -300,11 +302,12 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
             if (r.kind == "lights")
                 d << r.triangles_in << " " << r.seconds_wall << " " << r.peak_rss_mb << " "
                   << r.light_triangles << "\n";
+        write_file_atomically(out / "scaling.dat", d.view());
     }
     const bool lights =
         std::any_of(runs.begin(), runs.end(), [](const BenchRun& r) { return r.kind == "lights"; });
     if (scaling || lights) {
-        std::ofstream gp(out / "scaling.gp");
+        std::ostringstream gp;
         const std::string data = (out / "scaling.dat").string();
         const int panels = (scaling ? 1 : 0) + (lights ? 1 : 0);
         gp << "set terminal pngcairo size " << 640 * panels << ",520 font 'sans,10'\nset output '"
@@ -322,6 +325,7 @@ std::vector<std::string> plot(const BenchOptions& bench, const std::vector<Bench
                << data
                << "' index 1 using 4:3 axes x1y2 with linespoints pt 5 title 'peak memory'\n";
         gp << "unset multiplot\n";
+        write_file_atomically(out / "scaling.gp", gp.view());
     }
     if (!bench.plot) return made;
     for (const char* name : {"speed_error", "scaling"}) {
@@ -390,7 +394,7 @@ void write_run_tables(std::ostream& md, const std::vector<BenchRun>& runs) {
 void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
                    const std::vector<std::string>& scene_names,
                    const std::vector<std::string>& pngs) {
-    std::ofstream md(bench.out / "summary.md");
+    std::ostringstream md;
     md << "# Benchmark summary\n\n";
     if (!bench.command.empty()) md << "Command: `" << bench.command << "`\n\n";
     md << "Machine: " << first_line_of("/proc/cpuinfo", "model name") << ", "
@@ -437,6 +441,7 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
         md << "\n";
     }
     write_run_tables(md, runs);
+    write_file_atomically(bench.out / "summary.md", md.view());
 }
 
 }  // namespace
@@ -622,10 +627,11 @@ std::vector<BenchRun> run_bench(const BenchOptions& bench) {
 
     write_csv(bench.out / "bench.csv", runs, "grid");
     {
-        std::ofstream f(bench.out / "scaling.csv");
+        std::ostringstream f;
         f << kCsvHeader << "\n";
         for (const BenchRun& r : runs)
             if (r.kind != "grid") f << csv_row(r) << "\n";
+        write_file_atomically(bench.out / "scaling.csv", f.view());
     }
     const std::vector<std::string> pngs = plot(bench, runs, scene_names);
     write_summary(bench, runs, scene_names, pngs);

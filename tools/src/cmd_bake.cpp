@@ -10,10 +10,10 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <sstream>
 
+#include "abrad/atomic_file.h"
 #include "abrad/export/image.h"
 #include "abrad/radiosity/grid.h"
 #include "cli_common.h"
@@ -183,14 +183,41 @@ void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visd
                                                v.e_max > 0.0 ? v.e_max : 1.0,
                                                bake.unit == "lux" ? "lux" : "W/m²");
         } catch (const std::exception& x) {
-            failure(png.string() + ": " + x.what());
+            failure(x.what());  // names the file
         }
         std::printf(
             "  grid '%s': %d x %d points at z %.3g m: E_avg %.4g, E_min %.4g, E_max %.4g %s, "
             "U0 %.3f (%s, %s, %.2f s)\n",
             g.name.c_str(), v.nx, v.ny, g.z, v.e_avg, v.e_min, v.e_max, bake.unit.c_str(), v.u0(),
-            csv.string().c_str(), png.filename().string().c_str(), seconds_since(t0));
+            csv.filename().string().c_str(), png.filename().string().c_str(), seconds_since(t0));
     }
+}
+
+// A bake computed but not stored because its database stayed busy (another process's lock
+// or open read held past the busy timeout) is not thrown away: it is stored with its scene
+// in a new database beside the first, `<db stem>.unstored-<pid>.visdb`, and the command fails
+// (exit 1) naming both files.
+[[noreturn]] void keep_unstored_bake(const std::string& db, const visdb::Scene& scene,
+                                     visdb::Bake bake, const visdb::StoreError& busy) {
+    const std::string why = std::string(busy.what()) +
+                            " (another process held it past the busy timeout, "
+                            "ABRAD_BUSY_TIMEOUT_MS, default 10 s): the bake is not stored there";
+    const fs::path kept = fs::path(db).replace_extension("").string() + ".unstored-" +
+                          std::to_string(::getpid()) + ".visdb";
+    try {
+        visdb::Store side = visdb::Store::open(kept.string(), visdb::OpenMode::CreateOrOpen);
+        side.add_import(scene);
+        if (bake.name.empty())
+            bake.name = side.add_numbered_bake(bake);
+        else
+            side.add_bake(bake);
+    } catch (const std::exception& e) {
+        std::error_code ec;
+        fs::remove(kept, ec);
+        failure(why + ", and it could not be kept elsewhere: " + e.what());
+    }
+    failure(why + "; it is kept, with its scene, as bake '" + bake.name + "' in " + kept.string() +
+            " (export or render it from there with --db)");
 }
 
 }  // namespace
@@ -198,10 +225,10 @@ void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visd
 visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in,
                       const std::string& convergence_csv, const std::string& grid_prefix) {
     visdb::Store store = open_db(db);
+    store.check_writable();  // before the work, not after it
     const visdb::Scene scene = store.load_scene();
+    // Without --name the store numbers the bake (bake-N) when it stores it
     radiosity::BakeOptions options = options_in;
-    if (options.name.empty())
-        options.name = "bake-" + std::to_string(store.list_bakes().size() + 1);
     Progress progress;
     visdb::Bake b;
     std::vector<radiosity::ConvergenceSample> curve;
@@ -212,16 +239,22 @@ visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& optio
         bad_input(db + ": " + e.what());
     }
     if (!convergence_csv.empty()) {
-        std::ofstream out(convergence_csv);
+        std::ostringstream out;
         out << "shots,seconds,unshot_fraction\n";
         for (const auto& c : curve)
             out << c.shots << "," << c.seconds << "," << c.unshot_fraction << "\n";
-        if (!out)
-            throw CommandError{kExitFailure,
-                               convergence_csv + ": cannot write the convergence curve"};
+        write_file_atomically(convergence_csv, out.view());  // OutputError naming the file
     }
     b.created_at = utc_now();
-    store.add_bake(b);
+    try {
+        if (b.name.empty())
+            b.name = store.add_numbered_bake(b);
+        else
+            store.add_bake(b);
+    } catch (const visdb::StoreError& e) {
+        if (!e.busy()) throw;
+        keep_unstored_bake(db, scene, b, e);
+    }
     print_bake_summary(b, scene);
     std::cout << std::flush;
     evaluate_grids(db, scene, b,

@@ -1,13 +1,20 @@
 // abrad import: model files read, healed and appended to a visual database.
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
+#include <system_error>
 
 #include "abrad/convert/import.h"
 #include "abrad/convert/scene_file.h"
 #include "cli_common.h"
+
+namespace fs = std::filesystem;
 
 namespace abrad::tools::cli {
 namespace {
@@ -20,6 +27,21 @@ struct State {
 State& state() {
     static State s;
     return s;
+}
+
+// A database the import could not write, refused before any work: an existing one by the
+// store's check (exit 1, or 2 when it is not an abrad database), a new one when its folder
+// exists but is not writable. A missing folder is left to the store's open.
+void refuse_unwritable(const std::string& db) {
+    if (fs::exists(db)) {
+        open_db(db).check_writable();
+        return;
+    }
+    const fs::path dir = fs::path(db).has_parent_path() ? fs::path(db).parent_path() : ".";
+    if (!fs::is_directory(dir) || ::access(dir.c_str(), W_OK | X_OK) == 0) return;
+    const int err = errno;
+    failure(db + ": cannot create: its directory " + dir.string() + " is not writable (" +
+            std::generic_category().message(err) + ")");
 }
 
 }  // namespace
@@ -76,13 +98,10 @@ visdb::Scene read_models(const ImportArgs& a) {
 
 void import_into(const visdb::Scene& scene, const std::string& db) {
     visdb::Store store = open_db(db, visdb::OpenMode::CreateOrOpen);
-    // The same file twice would put every face on top of itself (coplanar overlaps)
-    for (const visdb::Source& have : store.load_scene().sources)
-        for (const visdb::Source& add : scene.sources)
-            if (have.checksum == add.checksum)
-                bad_input(add.path + ": already imported into " + db + " as " + have.path +
-                          " (same FNV-1a checksum " + have.checksum + "); nothing written");
-    store.add_import(scene);
+    store.check_writable();
+    // The same file twice would put every face on top of itself (coplanar overlaps): refused
+    // inside the import's transaction, so two imports of one file at once store it once
+    store.add_import(scene, visdb::SameSource::Refuse);
     std::cout << "stored " << scene.surfaces.size() << " surfaces, " << scene.triangle_count()
               << " triangles in " << db << "\n";
 }
@@ -96,6 +115,7 @@ void add_import(CLI::App& app) {
 
 int run_import(const Invocation&) {
     const State& s = state();
+    refuse_unwritable(s.db);  // before the models are read and healed
     const visdb::Scene scene = read_models(s.import);
     import_into(scene, s.db);
     return kExitOk;

@@ -1,8 +1,19 @@
-// abrad run: import, bake, export (PLY, OBJ) and a first rendered look in one go.
+// abrad run: import, bake, export (PLY, OBJ) and a first rendered look in one go. Everything
+// is made in a staging folder inside the output folder and moved into it only when all of it
+// was written, the database last, so a failure leaves the previous results as they were.
+
+#include <signal.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
 #include <filesystem>
 #include <iostream>
+#include <system_error>
+#include <utility>
+#include <vector>
 
 #include "cli_common.h"
 
@@ -22,6 +33,35 @@ RunArgs& state() {
     return s;
 }
 
+// Removes a folder and what it holds when it goes out of scope.
+struct StagingFolder {
+    explicit StagingFolder(fs::path p) : path(std::move(p)) {}
+    StagingFolder(const StagingFolder&) = delete;
+    StagingFolder& operator=(const StagingFolder&) = delete;
+    ~StagingFolder() {
+        std::error_code ec;
+        fs::remove_all(path, ec);
+    }
+    fs::path path;
+};
+
+// Removes the staging folders `.abrad-run-PID` that killed runs left in `out`: those whose
+// process is gone (a live one, perhaps another run in the same folder, is left alone).
+void remove_stale_staging(const fs::path& out) {
+    const std::string prefix = ".abrad-run-";
+    std::error_code ec;
+    for (const fs::directory_entry& entry : fs::directory_iterator(out, ec)) {
+        const std::string name = entry.path().filename().string();
+        if (name.rfind(prefix, 0) != 0 || !entry.is_directory(ec)) continue;
+        const std::string digits = name.substr(prefix.size());
+        pid_t pid = 0;
+        const auto [end, error] =
+            std::from_chars(digits.data(), digits.data() + digits.size(), pid);
+        if (error != std::errc() || end != digits.data() + digits.size() || pid <= 0) continue;
+        if (::kill(pid, 0) != 0 && errno == ESRCH) fs::remove_all(entry.path(), ec);
+    }
+}
+
 }  // namespace
 
 void add_run(CLI::App& app) {
@@ -38,34 +78,51 @@ int run_run(const Invocation& call) {
     const RunArgs& s = state();
     const radiosity::BakeOptions options = to_options(s.bake, call.app);
     const visdb::Scene scene = read_models(s.import);
-    fs::create_directories(s.out_dir);
     const fs::path out(s.out_dir);
+    fs::create_directories(out);
     const std::string stem = fs::path(s.import.models.front()).stem().string();
-    const fs::path final_db = out / (stem + ".visdb");
-    // Build the database beside its final name; replace only when everything worked
-    const fs::path tmp_db = out / (stem + ".visdb.partial");
-    fs::remove(tmp_db);
-    try {
-        import_into(scene, tmp_db.string());
-        bake_into(tmp_db.string(), options, s.bake.convergence_csv, (out / (stem + ".")).string());
-    } catch (...) {
-        fs::remove(tmp_db);
-        throw;
-    }
-    fs::rename(tmp_db, final_db);
+
+    // Make every result in a staging folder inside OUT (same file system: moves are renames),
+    // removed on the way out whatever happens; a failure leaves OUT as it was
+    remove_stale_staging(out);
+    const fs::path stage = out / (".abrad-run-" + std::to_string(::getpid()));
+    fs::remove_all(stage);
+    fs::create_directory(stage);
+    const StagingFolder guard{stage};
+    const fs::path db = stage / (stem + ".visdb");
+    import_into(scene, db.string());
+    bake_into(db.string(), options, s.bake.convergence_csv, (stage / (stem + ".")).string());
     for (const char* format : {"ply", "obj"}) {
         ExportArgs e;
-        e.db = final_db.string();
+        e.db = db.string();
         e.format = format;
-        e.output = (out / (stem + "." + format)).string();
+        e.output = (stage / (stem + "." + format)).string();
         export_bake(e);
     }
     // A first look through the scene's first camera (or the default one)
     RenderArgs r;
-    r.db = final_db.string();
-    r.output = (out / (stem + ".png")).string();
+    r.db = db.string();
+    r.output = (stage / (stem + ".png")).string();
     render_image(r);
-    std::cout << "database " << final_db.string() << "\n";
+
+    // Move the results into OUT, the database last: it says the run finished
+    std::vector<fs::path> made;
+    for (const fs::directory_entry& entry : fs::directory_iterator(stage))
+        if (entry.path() != db) made.push_back(entry.path());
+    std::sort(made.begin(), made.end());
+    made.push_back(db);
+    for (const fs::path& file : made) {  // a folder in a result's place fails before any move
+        std::error_code ec;
+        if (fs::is_directory(fs::symlink_status(out / file.filename(), ec)))
+            failure((out / file.filename()).string() + ": cannot write: it is a folder");
+    }
+    for (const fs::path& file : made) {
+        std::error_code ec;
+        fs::rename(file, out / file.filename(), ec);
+        if (ec) failure((out / file.filename()).string() + ": cannot write: " + ec.message());
+        std::cout << "wrote " << (out / file.filename()).string() << "\n";
+    }
+    std::cout << "database " << (out / db.filename()).string() << "\n";
     return kExitOk;
 }
 

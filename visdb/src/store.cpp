@@ -16,12 +16,16 @@
 #include "abrad/visdb/store.h"
 
 #include <sqlite3.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
+#include <cerrno>
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
@@ -272,6 +276,11 @@ StoreError::Kind kind_of(int result_code) {
     }
 }
 
+// Whether a SQLite error is another connection's lock held past the busy timeout.
+bool is_busy(int result_code) {
+    return (result_code & 0xff) == SQLITE_BUSY || (result_code & 0xff) == SQLITE_LOCKED;
+}
+
 // The busy timeout: ABRAD_BUSY_TIMEOUT_MS when set to a number >= 0, else kBusyTimeoutMs.
 int busy_timeout_ms() {
     const char* text = std::getenv("ABRAD_BUSY_TIMEOUT_MS");
@@ -300,14 +309,15 @@ class Connection {
 
     // "PATH: what"
     [[noreturn]] void fail(std::string_view what,
-                           StoreError::Kind kind = StoreError::Kind::BadInput) const {
-        throw StoreError(m_path + ": " + std::string(what), kind);
+                           StoreError::Kind kind = StoreError::Kind::BadInput,
+                           bool busy = false) const {
+        throw StoreError(m_path + ": " + std::string(what), kind, busy);
     }
 
     // "PATH: what: <SQLite's message>", of the kind the connection's last result code calls for
     [[noreturn]] void fail_sqlite(std::string_view what) const {
-        fail(std::string(what) + ": " + sqlite3_errmsg(m_db.get()),
-             kind_of(sqlite3_extended_errcode(m_db.get())));
+        const int code = sqlite3_extended_errcode(m_db.get());
+        fail(std::string(what) + ": " + sqlite3_errmsg(m_db.get()), kind_of(code), is_busy(code));
     }
 
     void exec(const char* sql, std::string_view what) const {
@@ -315,7 +325,8 @@ class Connection {
         if (sqlite3_exec(m_db.get(), sql, nullptr, nullptr, &message) != SQLITE_OK) {
             std::string text = message != nullptr ? message : sqlite3_errmsg(m_db.get());
             sqlite3_free(message);
-            fail(std::string(what) + ": " + text, kind_of(sqlite3_extended_errcode(m_db.get())));
+            const int code = sqlite3_extended_errcode(m_db.get());
+            fail(std::string(what) + ": " + text, kind_of(code), is_busy(code));
         }
     }
 
@@ -367,6 +378,9 @@ class Statement {
         if (rc == SQLITE_DONE) return false;
         m_connection.fail_sqlite("'" + std::string(sqlite3_sql(m_stmt)) + "' failed");
     }
+
+    // Resets the statement for the next bindings.
+    void reset() { sqlite3_reset(m_stmt); }
 
     // Runs a statement that returns no rows, then resets it for the next bindings.
     void run() {
@@ -577,13 +591,60 @@ auto& live(const ImplPtr& impl) {
     return *impl;
 }
 
+// Creates the database file `path` with the current schema, atomically: the schema is written
+// to a temporary beside it (`PATH.tmp-PID-N`), committed and closed, then hard-linked to `path`,
+// so a failure (a full disk) leaves no file at `path` for a later command to take for a
+// foreign one. When another process created `path` meanwhile, the link fails and its file is
+// kept. Errors name `path`; the temporary is removed either way.
+void create_database(const std::string& path) {
+    static std::atomic<unsigned> counter{0};  // only makes names unique within the process
+    const std::string tmp =
+        path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+    const auto remove_tmp = [&] {
+        std::remove(tmp.c_str());
+        std::remove((tmp + "-journal").c_str());
+    };
+    {
+        sqlite3* raw = nullptr;
+        const int rc =
+            sqlite3_open_v2(tmp.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+        DbHandle db(raw);
+        if (rc != SQLITE_OK) {
+            const int code = raw != nullptr ? sqlite3_extended_errcode(raw) : rc;
+            const std::string message = raw != nullptr ? sqlite3_errmsg(raw) : sqlite3_errstr(rc);
+            db.reset();
+            remove_tmp();
+            throw StoreError(path + ": cannot open: " + message, kind_of(code));
+        }
+        const Connection c(std::move(db), path);
+        sqlite3_extended_result_codes(c.get(), 1);
+        try {
+            c.exec("PRAGMA journal_mode = DELETE", "cannot select the rollback journal");
+            Transaction transaction(c, Transaction::Kind::Write);
+            migrate(c, 0);
+            transaction.commit();
+        } catch (...) {
+            remove_tmp();
+            throw;
+        }
+    }
+    // Give it its name unless another process was first (link never replaces a file)
+    if (::link(tmp.c_str(), path.c_str()) != 0 && errno != EEXIST) {
+        const int err = errno;
+        remove_tmp();
+        throw StoreError(path + ": cannot create: " + std::generic_category().message(err),
+                         StoreError::Kind::Failure);
+    }
+    remove_tmp();
+}
+
 }  // namespace
 
 Store Store::open(const std::string& path, OpenMode mode) {
     std::error_code ec;
-    if (mode != OpenMode::CreateOrOpen && !std::filesystem::exists(path, ec)) {
-        throw StoreError(path + ": no such database");
-    }
+    const bool exists = std::filesystem::exists(path, ec);
+    if (mode != OpenMode::CreateOrOpen && !exists) throw StoreError(path + ": no such database");
+    if (mode == OpenMode::CreateOrOpen && !exists) create_database(path);
 
     // Open the connection
     const int flags = mode == OpenMode::ReadOnly    ? SQLITE_OPEN_READONLY
@@ -729,7 +790,7 @@ Scene Store::load_scene() const {
     return scene;
 }
 
-void Store::add_import(const Scene& imported) {
+void Store::add_import(const Scene& imported, SameSource same_source) {
     const Impl& impl = live(m_impl);
     impl.require_writable();
     const Connection& c = impl.m_connection;
@@ -789,6 +850,19 @@ void Store::add_import(const Scene& imported) {
                     upsert.bind(1, imported.emittance_unit);
                     upsert.run();
                 }
+            }
+        }
+
+        // A source already imported (same checksum), checked under the write lock
+        if (same_source == SameSource::Refuse) {
+            Statement q(c, "SELECT path FROM sources WHERE checksum = ?1");
+            for (const Source& s : imported.sources) {
+                q.bind(1, s.checksum);
+                if (q.step()) {
+                    c.fail(s.path + ": already imported as " + q.text(0) +
+                           " (same FNV-1a checksum " + s.checksum + "); nothing written");
+                }
+                q.reset();
             }
         }
 
@@ -893,19 +967,40 @@ void Store::add_import(const Scene& imported) {
     }
 }
 
-std::int64_t Store::add_bake(const Bake& bake, const std::function<void(double)>& progress) {
-    const Impl& impl = live(m_impl);
-    impl.require_writable();
-    const Connection& c = impl.m_connection;
+namespace {
+
+// The bake `name` or, when `numbered`, the name `bake-N` with N the smallest number above the
+// count of bakes that no bake has. Call inside the write transaction.
+std::string bake_name(const Connection& c, const Bake& bake, bool numbered) {
+    if (!numbered) return bake.name;
+    std::int64_t n = 0;
+    {
+        Statement q(c, "SELECT count(*) FROM bakes");
+        if (q.step()) n = q.int64(0);
+    }
+    Statement taken(c, "SELECT 1 FROM bakes WHERE name = ?1");
+    for (;;) {
+        std::string name = "bake-" + std::to_string(++n);
+        taken.bind(1, name);
+        const bool exists = taken.step();
+        taken.reset();
+        if (!exists) return name;
+    }
+}
+
+// Stores `bake` (named, or numbered by bake_name) in one transaction: its id and name.
+std::pair<std::int64_t, std::string> write_bake(const Connection& c, const Bake& bake,
+                                                bool numbered,
+                                                const std::function<void(double)>& progress) {
     const auto report = [&](double fraction) {
         if (progress) progress(fraction);
     };
 
     // Check the bake before writing anything
-    const std::string label = "bake '" + bake.name + "'";
+    std::string label = numbered ? std::string("bake") : "bake '" + bake.name + "'";
     const BakeMesh& mesh = bake.mesh;
     const std::size_t vertex_count = mesh.positions.size();
-    if (bake.name.empty()) c.fail("a bake needs a name");
+    if (!numbered && bake.name.empty()) c.fail("a bake needs a name");
     if (mesh.normals.size() != vertex_count || mesh.irradiance.size() != vertex_count ||
         mesh.radiosity.size() != vertex_count) {
         c.fail(label + ": normals, irradiance and radiosity need one entry per vertex");
@@ -920,11 +1015,13 @@ std::int64_t Store::add_bake(const Bake& bake, const std::function<void(double)>
     try {
         Transaction transaction(c, Transaction::Kind::Write);
         report(0.0);
+        const std::string name = bake_name(c, bake, numbered);
+        label = "bake '" + name + "'";
 
         // Replace a bake of the same name (its children go by ON DELETE CASCADE)
         {
             Statement remove(c, "DELETE FROM bakes WHERE name = ?1");
-            remove.bind(1, bake.name);
+            remove.bind(1, name);
             remove.run();
         }
 
@@ -934,7 +1031,7 @@ std::int64_t Store::add_bake(const Bake& bake, const std::function<void(double)>
             Statement insert(c,
                              "INSERT INTO bakes(name, created_at, unit, status) "
                              "VALUES (?1, ?2, ?3, 'complete')");
-            insert.bind(1, bake.name);
+            insert.bind(1, name);
             insert.bind(2, bake.created_at);
             insert.bind(3, bake.unit);
             insert.run();
@@ -1016,13 +1113,48 @@ std::int64_t Store::add_bake(const Bake& bake, const std::function<void(double)>
 
         report(1.0);
         transaction.commit();
-        return id;
+        return {id, name};
     } catch (const StoreError&) {
         throw;  // already names the file; the transaction was rolled back on the way out
     } catch (const std::exception& e) {
         std::throw_with_nested(
             StoreError(c.path() + ": " + label + " not written (rolled back): " + e.what(),
                        StoreError::Kind::Failure));
+    }
+}
+
+}  // namespace
+
+std::int64_t Store::add_bake(const Bake& bake, const std::function<void(double)>& progress) {
+    const Impl& impl = live(m_impl);
+    impl.require_writable();
+    return write_bake(impl.m_connection, bake, false, progress).first;
+}
+
+std::string Store::add_numbered_bake(const Bake& bake,
+                                     const std::function<void(double)>& progress) {
+    const Impl& impl = live(m_impl);
+    impl.require_writable();
+    return write_bake(impl.m_connection, bake, true, progress).second;
+}
+
+void Store::check_writable() const {
+    const Impl& impl = live(m_impl);
+    const Connection& c = impl.m_connection;
+    if (impl.m_mode == OpenMode::ReadOnly) {
+        c.fail("the database is open read-only", StoreError::Kind::Failure);
+    }
+    if (sqlite3_db_readonly(c.get(), "main") == 1) {
+        c.fail("the database file is read-only: nothing can be stored in it",
+               StoreError::Kind::Failure);
+    }
+    const std::filesystem::path file(c.path());
+    const std::filesystem::path dir = file.has_parent_path() ? file.parent_path() : ".";
+    if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+        c.fail("its directory " + dir.string() + " is not writable (" +
+                   std::generic_category().message(errno) +
+                   "): SQLite cannot create its journal there, so nothing can be stored",
+               StoreError::Kind::Failure);
     }
 }
 

@@ -48,8 +48,8 @@ struct PlyOptions {
 /// irradiance_r/g/b and radiosity_r/g/b (float); face vertex_indices (list uchar int) and
 /// surface (int). Binary is little endian on any host; ASCII numbers read back exactly.
 /// Throws ExportError naming `path` when the mesh is inconsistent (array lengths, indices out
-/// of range) or the file cannot be written ("PATH: cannot write: ..."). Writes `PATH.tmp`
-/// and renames it, so a failure leaves no partial file at `path`.
+/// of range) or the file cannot be written ("PATH: cannot write: ..."). Writes a temporary
+/// beside `path` and renames it (abrad/atomic_file.h), so a failure leaves no partial file.
 void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, const ToneMap& tone,
                const PlyOptions& options = {});
 
@@ -58,7 +58,7 @@ void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, c
 /// colours are tone-mapped radiosity as 0..1 with 4 decimals; `o`/`usemtl` names have
 /// whitespace replaced by `_`. Throws ExportError naming `path` on an inconsistent mesh, a
 /// surface or material id out of range of `scene`, or an I/O failure; both files are written
-/// to `.tmp` first and renamed.
+/// to temporaries first and renamed (abrad/atomic_file.h).
 void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
                const visdb::BakeMesh& mesh, const ToneMap& tone);
 
@@ -80,7 +80,7 @@ struct PovView {
 /// `Abrad_Exposure` is declared only when not already defined (override it with
 /// `Declare=Abrad_Exposure=1` on the povray command line for absolute values). Render to
 /// OpenEXR (`+FE`) for linear values; a PNG clips them at 1. Throws ExportError naming `path`
-/// on an inconsistent mesh or an I/O failure (written to PATH.tmp and renamed).
+/// on an inconsistent mesh or an I/O failure (written to a temporary and renamed).
 void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
                const visdb::BakeMesh& mesh, const PovView& view);
 

@@ -52,8 +52,8 @@ GridValues grid_points(const visdb::CalculationGrid& grid);
 GridValues evaluate_grid(const PointIrradiance& field, const visdb::CalculationGrid& grid);
 
 /// Writes the grid's values as CSV, one line per point after the header
-/// "x,y,z,illuminance,irradiance_r,irradiance_g,irradiance_b". Throws std::runtime_error
-/// "PATH: cannot write the grid values" when the file cannot be written.
+/// "x,y,z,illuminance,irradiance_r,irradiance_g,irradiance_b", atomically
+/// (abrad/atomic_file.h). Throws OutputError "PATH: cannot write: ..." when it cannot be written.
 void write_grid_csv(const std::filesystem::path& path, const GridValues& grid);
 
 /// Reads probe points: one "x,y,z,nx,ny,nz" line per point (metres, six finite numbers

@@ -25,14 +25,26 @@ class StoreError : public std::runtime_error {
                    ///< a file that cannot be created
     };
 
-    explicit StoreError(const std::string& what, Kind kind = Kind::BadInput)
-        : std::runtime_error(what), m_kind(kind) {}
+    explicit StoreError(const std::string& what, Kind kind = Kind::BadInput, bool busy = false)
+        : std::runtime_error(what), m_kind(kind), m_busy(busy) {}
 
     /// BadInput or Failure (from the SQLite result code when SQLite reported the error).
     Kind kind() const { return m_kind; }
 
+    /// True when another connection held the database past the busy timeout (SQLITE_BUSY or
+    /// SQLITE_LOCKED; kind Failure): the same write may succeed later.
+    bool busy() const { return m_busy; }
+
   private:
     Kind m_kind;
+    bool m_busy;
+};
+
+/// What Store::add_import does with a source whose checksum the database already holds.
+enum class SameSource {
+    Allow,   ///< import it again
+    Refuse,  ///< StoreError (BadInput) naming both paths; checked inside the write transaction,
+             ///< so of two concurrent imports of one file only the first is stored
 };
 
 /// How to open a database file.
@@ -57,12 +69,15 @@ struct BakeSummary {
 /// Current schema version written by this build.
 inline constexpr int kSchemaVersion = 2;
 
-/// A handle on one .visdb file. Move-only.
+/// A handle on one .visdb file. Move-only. Writers take the lock with BEGIN IMMEDIATE and
+/// wait for it, and for readers to finish at COMMIT, up to the busy timeout.
 class Store {
   public:
-    /// Opens (or creates) `path`. Throws StoreError naming the path when the file is missing
-    /// (ReadOnly/ReadWrite), is not an abrad database, or has a newer schema version. A
-    /// connection waits up to 10 s for another process's lock (the environment variable
+    /// Opens (or creates) `path`. A new file is created whole or not at all: its schema is
+    /// written to a temporary beside it that gets the name once committed, so a failure (a full
+    /// disk: kind Failure) leaves no file at `path`. Throws StoreError naming the path when the
+    /// file is missing (ReadOnly/ReadWrite), is not an abrad database, or has a newer schema
+    /// version. A connection waits up to 10 s for another process's lock (the environment variable
     /// ABRAD_BUSY_TIMEOUT_MS overrides that), then fails with kind Failure.
     static Store open(const std::string& path, OpenMode mode);
 
@@ -78,7 +93,8 @@ class Store {
 
     /// Appends an imported scene in one transaction. Material and source indices in
     /// `imported.surfaces` refer to `imported.materials`/`imported.sources` and are remapped.
-    void add_import(const Scene& imported);
+    /// `same_source` says whether a source already in the database (same checksum) is refused.
+    void add_import(const Scene& imported, SameSource same_source = SameSource::Allow);
 
     /// Stores a bake in one transaction and returns its id. A bake with the same name is
     /// replaced in that same transaction. `progress`, when set, is called with the fraction
@@ -86,6 +102,19 @@ class Store {
     /// `bake.name` must not be empty, and the mesh arrays must agree in length with in-range
     /// triangle indices; otherwise StoreError and nothing is written. `bake.id` is ignored.
     std::int64_t add_bake(const Bake& bake, const std::function<void(double)>& progress = {});
+
+    /// Stores a bake that has no name yet (`bake.name` is ignored): names it `bake-N` inside
+    /// the write transaction, N the smallest number above the count of bakes that no bake has,
+    /// so concurrent writers never take the same name and neither replaces the other. Returns
+    /// the name. Otherwise as add_bake.
+    std::string add_numbered_bake(const Bake& bake,
+                                  const std::function<void(double)>& progress = {});
+
+    /// Throws StoreError (kind Failure) unless a write can succeed as far as permissions tell:
+    /// the store was opened read-only, the file is not writable (SQLite then opened it
+    /// read-only), or its directory is not writable (SQLite creates its journal there). For
+    /// commands to call before long work whose result they will store.
+    void check_writable() const;
 
     /// All bakes, oldest first, without meshes.
     std::vector<BakeSummary> list_bakes() const;
