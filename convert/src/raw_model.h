@@ -112,8 +112,15 @@ std::string fnv1a64_hex(std::string_view bytes);
 /// Current time as ISO 8601 UTC (Source::imported_at).
 std::string utc_now_iso8601();
 
-/// Reads a whole file; throws ImportError naming `display` when it cannot.
+/// Reads a whole regular file; throws ImportError naming `display` when it cannot, or when it
+/// is a directory, a device, a FIFO or a socket (which would block or never end).
 std::string read_file_bytes(const std::filesystem::path& path, const std::string& display,
                             const char* what);
+
+/// Throws ImportError at `referrer`:`line` unless `ref`, a file that model file `model` refers
+/// to (`what`: "material library", "texture"...), resolves to a path inside the folder tree of
+/// `model` (symbolic links followed; an absolute `ref` is checked the same way).
+void check_reference_inside(const std::filesystem::path& ref, const std::filesystem::path& model,
+                            const std::string& referrer, std::size_t line, std::string_view what);
 
 }  // namespace abrad::convert::detail
