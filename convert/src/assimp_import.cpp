@@ -1456,6 +1456,11 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                     (face.mNumIndices == 1 ? points : face.mNumIndices == 2 ? lines : empty) += 1;
                     continue;
                 }
+                if (face.mNumIndices > kMaxPolygonCorners) {
+                    throw ImportError(file, 0,
+                                      instances->back().label + " face " + std::to_string(f) +
+                                          ": " + too_many_corners(face.mNumIndices));
+                }
                 const std::size_t first = raw.corners.size();
                 for (unsigned i = 0; i < face.mNumIndices; ++i) {
                     const unsigned v = face.mIndices[mirrored ? face.mNumIndices - 1 - i : i];

@@ -645,7 +645,7 @@ class ObjParser {
         if (n < 3) {
             fail(line, "face with " + std::to_string(n) + " vertices (at least 3 needed)");
         }
-        if (n > std::numeric_limits<std::uint32_t>::max()) fail(line, "face too large");
+        if (n > detail::kMaxPolygonCorners) fail(line, detail::too_many_corners(n));
         ForwardReference forward{line, 0, 0, 0};
         const std::size_t first = m_data.corners.size();
         for (std::size_t i = 1; i <= n; ++i) {

@@ -52,6 +52,18 @@ struct RawModel {
     std::function<std::string(std::size_t place)> where;
 };
 
+/// Most corners of one polygon: heal() triangulates by ear clipping, quadratic in the corners
+/// (cubic on self-intersecting polygons), so a 64k-corner face took minutes; readers refuse
+/// larger faces with their place.
+inline constexpr std::size_t kMaxPolygonCorners = 2048;
+
+/// "polygon with N corners (at most kMaxPolygonCorners...)": the message for a larger face.
+inline std::string too_many_corners(std::size_t corners) {
+    return "polygon with " + std::to_string(corners) + " corners (at most " +
+           std::to_string(kMaxPolygonCorners) +
+           ": ear clipping is quadratic in them); split it into smaller faces";
+}
+
 /// Reads an OBJ file and its MTL libraries (obj_import.cpp). Notes go to `notes`.
 RawModel read_obj(const std::filesystem::path& path, const ImportOptions& options,
                   std::vector<std::string>& notes);

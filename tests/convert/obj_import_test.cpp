@@ -509,6 +509,25 @@ TEST(ObjImport, MaterialLibrariesOutsideTheModelFolderAreRefused) {
     }
 }
 
+// Issue 19: a face of 64k corners kept the ear clipper busy for minutes; faces over 2048
+// corners are refused at their line, and one of 2048 (a convex circle) is triangulated
+TEST(ObjImport, PolygonsOverTheCornerLimitAreRefused) {
+    TempDir dir;
+    const auto circle = [](std::size_t n) {
+        std::string s;
+        for (std::size_t i = 0; i < n; ++i) {
+            const double a = 2.0 * M_PI * static_cast<double>(i) / static_cast<double>(n);
+            s += "v " + std::to_string(std::cos(a)) + " " + std::to_string(std::sin(a)) + " 0\n";
+        }
+        s += "f";
+        for (std::size_t i = 1; i <= n; ++i) s += " " + std::to_string(i);
+        return s + "\n";
+    };
+    expect_error(dir.write("big.obj", circle(2049)), 2050, "polygon with 2049 corners");
+    const ImportResult r = import_obj(dir.write("limit.obj", circle(2048)), ImportOptions{});
+    EXPECT_EQ(r.report.triangles, 2046U);
+}
+
 TEST(ObjImport, CornellBoxOriginal) {
     ABRAD_REQUIRE_SHARED_DATA("cornell_box/CornellBox-Original.obj");
     const fs::path path = kSharedData / "cornell_box" / "CornellBox-Original.obj";

@@ -39,7 +39,7 @@ struct ImportOptions {
     glm::dvec3 origin_shift{0.0};
     /// Vertices closer than this fraction of the model's bounding-box diagonal are welded.
     double weld_tolerance = 1e-6;
-    /// Files a model refers to (an OBJ's `mtllib`, a glTF's buffers and images) must be inside
+    /// Files a model refers to (an OBJ's `mtllib`) must be inside
     /// the model's folder tree, else the import fails; true reads them wherever they are.
     bool allow_outside_refs = false;
 };
