@@ -344,10 +344,20 @@ Affine dxf_ocs(glm::dvec3 n) {
     return m;
 }
 
+/// Most entities the expansion of a file's INSERTs may copy (a 3DFACE, a polyline vertex or a
+/// line each; about 350 bytes of DXF text each, 1.7 GB in all, that Assimp then reads): nested
+/// INSERTs and MINSERT arrays multiply, and a 300-byte file can ask for 10^10 faces.
+constexpr std::uint64_t kMaxDxfBlockEntities = 5'000'000;
+/// Most copies one INSERT places (MINSERT columns x rows); more are ignored with a note.
+constexpr std::uint64_t kMaxDxfInsertCopies = 100'000;
+/// Deepest nesting of INSERTs inside blocks; deeper ones are ignored with a note.
+constexpr std::size_t kMaxDxfInsertDepth = 16;
+
 /// Expands the INSERTs of the ENTITIES section into transformed copies of their blocks'
 /// 3DFACE/POLYLINE/VERTEX/LINE entities (position, scale, rotation, extrusion, MINSERT arrays,
 /// nested INSERTs; entities on layer 0 take the INSERT's layer), because Assimp 5.2 places them
-/// wrongly. Returns nullopt when the file has no INSERT in ENTITIES (nothing to do).
+/// wrongly. Throws ImportError, before expanding anything, when the copies would exceed
+/// kMaxDxfBlockEntities. Returns nullopt when the file has no INSERT in ENTITIES (nothing to do).
 std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
                                               const std::string& file,
                                               std::vector<std::string>& notes) {
@@ -455,11 +465,12 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
         }
     };
 
-    // Expands INSERT `e` under the transform `outer` (identity at the top level)
-    const auto expand = [&](const auto& self, const Entity& e, const Affine& outer,
-                            std::string_view outer_layer) -> void {
+    // The fields of INSERT (or MINSERT) `e`
+    struct Insert {
         std::string name;
         std::string layer = "0";
+        std::string handle;
+        std::size_t line = 0;
         glm::dvec3 pos{0.0};
         glm::dvec3 scale{1.0};
         glm::dvec3 extrusion{0.0, 0.0, 1.0};
@@ -468,127 +479,202 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
         long rows = 1;
         double column_spacing = 0.0;
         double row_spacing = 0.0;
+        /// columns x rows, or 0 when over kMaxDxfInsertCopies (checked: the counts are any
+        /// long the file gives)
+        std::uint64_t copies = 1;
+    };
+    const auto parse_insert = [&](const Entity& e) {
+        Insert ins;
+        ins.line = pairs[e.first].line;
         for (std::size_t k = e.first + 1; k < e.last; ++k) {
             const std::string_view v = pairs[k].value;
             const double x = parse_double(v).value_or(0.0);
             switch (pairs[k].code) {
                 case 2:
-                    name = v;
+                    ins.name = v;
+                    break;
+                case 5:
+                    ins.handle = v;
                     break;
                 case 8:
-                    layer = v;
+                    ins.layer = v;
                     break;
                 case 10:
-                    pos.x = x;
+                    ins.pos.x = x;
                     break;
                 case 20:
-                    pos.y = x;
+                    ins.pos.y = x;
                     break;
                 case 30:
-                    pos.z = x;
+                    ins.pos.z = x;
                     break;
                 case 41:
-                    scale.x = x;
+                    ins.scale.x = x;
                     break;
                 case 42:
-                    scale.y = x;
+                    ins.scale.y = x;
                     break;
                 case 43:
-                    scale.z = x;
+                    ins.scale.z = x;
                     break;
                 case 50:
-                    angle_deg = x;
+                    ins.angle_deg = x;
                     break;
                 case 70:
-                    columns = std::max(1L, parse_long(v).value_or(1));
+                    ins.columns = std::max(1L, parse_long(v).value_or(1));
                     break;
                 case 71:
-                    rows = std::max(1L, parse_long(v).value_or(1));
+                    ins.rows = std::max(1L, parse_long(v).value_or(1));
                     break;
                 case 44:
-                    column_spacing = x;
+                    ins.column_spacing = x;
                     break;
                 case 45:
-                    row_spacing = x;
+                    ins.row_spacing = x;
                     break;
                 case 210:
-                    extrusion.x = x;
+                    ins.extrusion.x = x;
                     break;
                 case 220:
-                    extrusion.y = x;
+                    ins.extrusion.y = x;
                     break;
                 case 230:
-                    extrusion.z = x;
+                    ins.extrusion.z = x;
                     break;
                 default:
                     break;
             }
         }
-        if (layer == "0") layer = outer_layer;
-        const std::size_t line = pairs[e.first].line;
-        const auto it = blocks.find(name);
-        if (it == blocks.end()) {
-            insert_notes.add(
-                located(file, line, "INSERT of undefined block " + quote_name(name) + " ignored"));
+        // Copies of a MINSERT array: each factor is checked before the product, which then
+        // fits in 64 bits
+        const auto c = static_cast<std::uint64_t>(ins.columns);
+        const auto r = static_cast<std::uint64_t>(ins.rows);
+        ins.copies =
+            c <= kMaxDxfInsertCopies && r <= kMaxDxfInsertCopies && c * r <= kMaxDxfInsertCopies
+                ? c * r
+                : 0;
+        return ins;
+    };
+    // What the expansion does with an INSERT: why it is skipped, or empty when it expands
+    static constexpr std::string_view kUndefined = "undefined";
+    const auto skip_reason = [&](const Insert& ins) -> std::string {
+        if (blocks.find(ins.name) == blocks.end()) return std::string(kUndefined);
+        if (expanding.count(ins.name) > 0 || expanding.size() >= kMaxDxfInsertDepth)
+            return "inside itself (or nested too deep)";
+        if (glm::length(ins.extrusion) == 0.0 || ins.copies == 0)
+            return "with a zero extrusion direction or too many copies";
+        return "";
+    };
+    const auto is_copied = [](std::string_view type) {
+        return type == "3DFACE" || type == "POLYLINE" || type == "VERTEX" || type == "SEQEND" ||
+               type == "LINE" || type == "3DLINE";
+    };
+
+    // Entities INSERT `e` would copy, saturating at kMaxDxfBlockEntities + 1; memoized per
+    // (block, nesting depth), so nested INSERT bombs are counted in time linear in the file
+    std::map<std::pair<std::string, std::size_t>, std::uint64_t> counted;
+    const auto count = [&](const auto& self, const Entity& e) -> std::uint64_t {
+        const Insert ins = parse_insert(e);
+        if (!skip_reason(ins).empty()) return 0;
+        const auto key = std::make_pair(ins.name, expanding.size());
+        auto memo = counted.find(key);
+        if (memo == counted.end()) {
+            expanding.insert(ins.name);
+            std::uint64_t n = 0;
+            for (const Entity& be : blocks.find(ins.name)->second.entities) {
+                const std::string_view type = pairs[be.first].value;
+                if (type == "INSERT") {
+                    n += self(self, be);
+                } else if (is_copied(type)) {
+                    ++n;
+                }
+                n = std::min<std::uint64_t>(n, kMaxDxfBlockEntities + 1);
+            }
+            expanding.erase(ins.name);
+            memo = counted.emplace(key, n).first;
+        }
+        // Both factors are at most kMaxDxfBlockEntities + 1 and kMaxDxfInsertCopies: no overflow
+        return std::min<std::uint64_t>(memo->second * ins.copies, kMaxDxfBlockEntities + 1);
+    };
+    const auto where = [&](const Insert& ins) {
+        return "INSERT of block " + quote_name(ins.name) +
+               (ins.handle.empty() ? std::string() : " (handle " + ins.handle + ")");
+    };
+    const auto over_budget = [&](const Insert& ins) {
+        return ImportError(file, ins.line,
+                           where(ins) + " expands the blocks to more than " +
+                               std::to_string(kMaxDxfBlockEntities) +
+                               " entities (nested INSERTs and MINSERT arrays multiply); refused");
+    };
+
+    // Expands INSERT `e` under the transform `outer` (identity at the top level); `copied`
+    // counts the entities copied so far, a guard behind the count made before expanding
+    std::uint64_t copied = 0;
+    const auto expand = [&](const auto& self, const Entity& e, const Affine& outer,
+                            std::string_view outer_layer, const Insert& top) -> void {
+        Insert ins = parse_insert(e);
+        if (ins.layer == "0") ins.layer = outer_layer;
+        const std::string reason = skip_reason(ins);
+        if (!reason.empty()) {
+            insert_notes.add(located(
+                file, ins.line,
+                reason == kUndefined
+                    ? "INSERT of undefined block " + quote_name(ins.name) + " ignored"
+                    : "INSERT of block " + quote_name(ins.name) + " " + reason + " ignored"));
             return;
         }
-        if (expanding.count(name) > 0 || expanding.size() >= 16) {
-            insert_notes.add(located(file, line,
-                                     "INSERT of block " + quote_name(name) +
-                                         " inside itself (or nested too deep) "
-                                         "ignored"));
-            return;
-        }
-        if (glm::length(extrusion) == 0.0 || columns * rows > 100000) {
-            insert_notes.add(located(file, line,
-                                     "INSERT of block " + quote_name(name) +
-                                         " with a zero extrusion direction or "
-                                         "too many copies ignored"));
-            return;
-        }
-        expanding.insert(name);
-        const Block& b = it->second;
-        const double a = angle_deg * kPi / 180.0;
+        expanding.insert(ins.name);
+        const Block& b = blocks.find(ins.name)->second;
+        const double a = ins.angle_deg * kPi / 180.0;
         Affine rot(1.0);
         rot[0] = glm::dvec4(std::cos(a), std::sin(a), 0.0, 0.0);
         rot[1] = glm::dvec4(-std::sin(a), std::cos(a), 0.0, 0.0);
         Affine scl(1.0);
-        scl[0][0] = scale.x;
-        scl[1][1] = scale.y;
-        scl[2][2] = scale.z;
+        scl[0][0] = ins.scale.x;
+        scl[1][1] = ins.scale.y;
+        scl[2][2] = ins.scale.z;
         Affine to_base(1.0);
         to_base[3] = glm::dvec4(-b.base, 1.0);
-        const Affine ocs = dxf_ocs(extrusion);
-        for (long r = 0; r < rows; ++r) {
-            for (long c = 0; c < columns; ++c) {
+        const Affine ocs = dxf_ocs(ins.extrusion);
+        for (long r = 0; r < ins.rows; ++r) {
+            for (long c = 0; c < ins.columns; ++c) {
                 // Array spacing is along the rotated block axes, not scaled
                 Affine place(1.0);
                 place[3] = glm::dvec4(
-                    pos + glm::dvec3(rot * glm::dvec4(static_cast<double>(c) * column_spacing,
-                                                      static_cast<double>(r) * row_spacing, 0.0,
-                                                      0.0)),
+                    ins.pos +
+                        glm::dvec3(rot * glm::dvec4(static_cast<double>(c) * ins.column_spacing,
+                                                    static_cast<double>(r) * ins.row_spacing, 0.0,
+                                                    0.0)),
                     1.0);
                 const Affine m = outer * ocs * place * rot * scl * to_base;
                 for (const Entity& be : b.entities) {
                     const std::string_view type = pairs[be.first].value;
                     if (type == "INSERT") {
-                        self(self, be, m, layer);
-                    } else if (type == "3DFACE" || type == "POLYLINE" || type == "VERTEX" ||
-                               type == "SEQEND" || type == "LINE" || type == "3DLINE") {
-                        copy_entity(be, m, layer);
+                        self(self, be, m, ins.layer, top);
+                    } else if (is_copied(type)) {
+                        if (++copied > kMaxDxfBlockEntities) throw over_budget(top);
+                        copy_entity(be, m, ins.layer);
                     }
                 }
             }
         }
-        expanding.erase(name);
+        expanding.erase(ins.name);
     };
+
+    // The budget, before anything is expanded
+    std::uint64_t total = 0;
+    for (const Entity& e : inserts) {
+        total += count(count, e);
+        if (total > kMaxDxfBlockEntities) throw over_budget(parse_insert(e));
+    }
 
     // Copy the file up to the end of the ENTITIES section header, then its entities with the
     // INSERTs expanded, then the rest
     std::size_t next_insert = 0;
     for (std::size_t i = 0; i < pairs.size(); ++i) {
         if (next_insert < inserts.size() && i == inserts[next_insert].first) {
-            expand(expand, inserts[next_insert], Affine(1.0), "0");
+            expand(expand, inserts[next_insert], Affine(1.0), "0",
+                   parse_insert(inserts[next_insert]));
             i = inserts[next_insert].last - 1;
             ++next_insert;
             continue;
@@ -1369,6 +1455,11 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                 if (face.mNumIndices < 3) {
                     (face.mNumIndices == 1 ? points : face.mNumIndices == 2 ? lines : empty) += 1;
                     continue;
+                }
+                if (face.mNumIndices > kMaxPolygonCorners) {
+                    throw ImportError(file, 0,
+                                      instances->back().label + " face " + std::to_string(f) +
+                                          ": " + too_many_corners(face.mNumIndices));
                 }
                 const std::size_t first = raw.corners.size();
                 for (unsigned i = 0; i < face.mNumIndices; ++i) {

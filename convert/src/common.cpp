@@ -1,5 +1,6 @@
 // Helpers every importer shares: located messages, whole-file reads, checksums, timestamps.
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdint>
@@ -49,12 +50,36 @@ std::string read_file_bytes(const std::filesystem::path& path, const std::string
     if (std::filesystem::is_directory(status)) {
         throw ImportError(display, 0, "is a directory, not a " + std::string(what));
     }
+    // A device, FIFO or socket would block or never end (/dev/zero): regular files only
+    if (!std::filesystem::is_regular_file(status)) {
+        throw ImportError(
+            display, 0,
+            "is not a regular file (a device, FIFO or socket), not a " + std::string(what));
+    }
     std::ifstream in(path, std::ios::binary);
     if (!in) throw ImportError(display, 0, "cannot open " + std::string(what));
     std::ostringstream bytes;
     if (in.peek() != std::ifstream::traits_type::eof()) bytes << in.rdbuf();
     if (in.bad()) throw ImportError(display, 0, "cannot read " + std::string(what));
     return std::move(bytes).str();
+}
+
+void check_reference_inside(const std::filesystem::path& ref, const std::filesystem::path& model,
+                            const std::string& referrer, std::size_t line, std::string_view what) {
+    // Compare the resolved paths (symbolic links followed, "..", "." removed) by component
+    std::error_code ec;
+    const std::filesystem::path parent = model.parent_path().empty() ? "." : model.parent_path();
+    const std::filesystem::path root = std::filesystem::weakly_canonical(parent, ec);
+    const std::filesystem::path target =
+        ec ? std::filesystem::path() : std::filesystem::weakly_canonical(ref, ec);
+    if (!ec && !root.empty() && !target.empty()) {
+        const auto [r, t] = std::mismatch(root.begin(), root.end(), target.begin(), target.end());
+        if (r == root.end() && t != target.end()) return;
+    }
+    throw ImportError(referrer, line,
+                      std::string(what) + " " + quote(ref.string()) +
+                          " is outside the model's folder " + quote(parent.string()) +
+                          "; refused (--allow-outside-refs allows it)");
 }
 
 std::string fnv1a64_hex(std::string_view bytes) {

@@ -25,6 +25,7 @@
 #include <fstream>
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <set>
@@ -230,7 +231,11 @@ class IgnoredStatements {
                     continue;
                 }
                 ++unknown_shown;
-                message = "unknown statement " + quote(e.keyword) + " ignored";
+                // A keyword is shown only when it looks like one (not a line of a binary file)
+                const bool printable = std::all_of(e.keyword.begin(), e.keyword.end(),
+                                                   [](char ch) { return ch > ' ' && ch < 127; });
+                message = printable ? "unknown statement " + quote(e.keyword) + " ignored"
+                                    : std::string("unknown statement (not text) ignored");
             }
             if (e.count > 1) message += " (" + std::to_string(e.count) + " times, first here)";
             notes.push_back(located(file, e.first_line, message));
@@ -288,7 +293,12 @@ class MaterialLibrary {
     }
 
   private:
-    void parse(std::string_view text, const std::string& file, std::vector<std::string>& notes) {
+    void parse(std::string_view text, const std::string& file, std::vector<std::string>& out) {
+        // Notes are kept apart until the file proves to be a material library: nothing of a
+        // file that is not one (a binary, /etc/passwd) may reach the stored import report
+        std::vector<std::string> notes;
+        bool has_newmtl = false;
+        std::size_t first_statement = 0;
         LineReader reader(text);
         std::string_view line;
         std::size_t line_no = 0;
@@ -300,7 +310,9 @@ class MaterialLibrary {
             split(line, tokens);
             if (tokens.empty()) continue;
             const std::string_view key = tokens[0];
+            if (first_statement == 0) first_statement = line_no;
             if (key == "newmtl") {
+                has_newmtl = true;
                 const std::string name(rest_after_keyword(line, tokens));
                 if (name.empty()) throw ImportError(file, line_no, "newmtl without a name");
                 if (const MtlEntry* earlier = find(name)) {
@@ -330,7 +342,14 @@ class MaterialLibrary {
             }
             apply(*current, tokens, file, line_no, notes);
         }
+        if (first_statement > 0 && !has_newmtl) {
+            throw ImportError(file, 0,
+                              "not a material library (no newmtl statement); its content is "
+                              "not shown");
+        }
         ignored.flush(file, notes);
+        out.insert(out.end(), std::make_move_iterator(notes.begin()),
+                   std::make_move_iterator(notes.end()));
     }
 
     static bool is_known(std::string_view key) {
@@ -497,9 +516,11 @@ struct ObjData {
 class ObjParser {
   public:
     ObjParser(std::string file, std::filesystem::path directory, std::string stem, UnitScale scale,
-              char up, MaterialLibrary& library, std::vector<std::string>& notes)
+              char up, bool allow_outside_refs, MaterialLibrary& library,
+              std::vector<std::string>& notes)
         : m_file(std::move(file)),
           m_directory(std::move(directory)),
+          m_allow_outside_refs(allow_outside_refs),
           m_stem(std::move(stem)),
           m_scale(scale),
           m_up(up),
@@ -535,8 +556,13 @@ class ObjParser {
             } else if (key == "mtllib") {
                 for (std::size_t i = 1; i < tokens.size(); ++i) {
                     const std::filesystem::path name{std::string(tokens[i])};
-                    m_library.load(name.is_absolute() ? name : m_directory / name, m_file, line_no,
-                                   m_notes);
+                    const std::filesystem::path path =
+                        name.is_absolute() ? name : m_directory / name;
+                    if (!m_allow_outside_refs) {
+                        detail::check_reference_inside(path, std::filesystem::path(m_file), m_file,
+                                                       line_no, "material library");
+                    }
+                    m_library.load(path, m_file, line_no, m_notes);
                 }
             } else if (key == "s") {
                 // smoothing groups do not matter to a diffuse bake
@@ -619,7 +645,7 @@ class ObjParser {
         if (n < 3) {
             fail(line, "face with " + std::to_string(n) + " vertices (at least 3 needed)");
         }
-        if (n > std::numeric_limits<std::uint32_t>::max()) fail(line, "face too large");
+        if (n > detail::kMaxPolygonCorners) fail(line, detail::too_many_corners(n));
         ForwardReference forward{line, 0, 0, 0};
         const std::size_t first = m_data.corners.size();
         for (std::size_t i = 1; i <= n; ++i) {
@@ -715,6 +741,7 @@ class ObjParser {
 
     std::string m_file;
     std::filesystem::path m_directory;
+    bool m_allow_outside_refs = false;
     std::string m_stem;
     UnitScale m_scale;
     char m_up;
@@ -794,7 +821,8 @@ RawModel read_obj(const std::filesystem::path& path, const ImportOptions& option
 
     // Read the statements of the OBJ file and its material libraries
     MaterialLibrary library;
-    ObjParser parser(file, path.parent_path(), path.stem().string(), scale, up, library, notes);
+    ObjParser parser(file, path.parent_path(), path.stem().string(), scale, up,
+                     options.allow_outside_refs, library, notes);
     ObjData data = parser.parse(bytes);
     if (data.faces.empty()) throw ImportError(file, 0, "no faces to import");
 

@@ -52,6 +52,18 @@ struct RawModel {
     std::function<std::string(std::size_t place)> where;
 };
 
+/// Most corners of one polygon: heal() triangulates by ear clipping, quadratic in the corners
+/// (cubic on self-intersecting polygons), so a 64k-corner face took minutes; readers refuse
+/// larger faces with their place.
+inline constexpr std::size_t kMaxPolygonCorners = 2048;
+
+/// "polygon with N corners (at most kMaxPolygonCorners...)": the message for a larger face.
+inline std::string too_many_corners(std::size_t corners) {
+    return "polygon with " + std::to_string(corners) + " corners (at most " +
+           std::to_string(kMaxPolygonCorners) +
+           ": ear clipping is quadratic in them); split it into smaller faces";
+}
+
 /// Reads an OBJ file and its MTL libraries (obj_import.cpp). Notes go to `notes`.
 RawModel read_obj(const std::filesystem::path& path, const ImportOptions& options,
                   std::vector<std::string>& notes);
@@ -112,8 +124,15 @@ std::string fnv1a64_hex(std::string_view bytes);
 /// Current time as ISO 8601 UTC (Source::imported_at).
 std::string utc_now_iso8601();
 
-/// Reads a whole file; throws ImportError naming `display` when it cannot.
+/// Reads a whole regular file; throws ImportError naming `display` when it cannot, or when it
+/// is a directory, a device, a FIFO or a socket (which would block or never end).
 std::string read_file_bytes(const std::filesystem::path& path, const std::string& display,
                             const char* what);
+
+/// Throws ImportError at `referrer`:`line` unless `ref`, a file that model file `model` refers
+/// to (`what`: "material library", "texture"...), resolves to a path inside the folder tree of
+/// `model` (symbolic links followed; an absolute `ref` is checked the same way).
+void check_reference_inside(const std::filesystem::path& ref, const std::filesystem::path& model,
+                            const std::string& referrer, std::size_t line, std::string_view what);
 
 }  // namespace abrad::convert::detail

@@ -663,6 +663,54 @@ TEST(AssimpImport, DxfInsertsPlacedScaledTurnedAndNested) {
     EXPECT_TRUE(any_note(notes, file.string() + ":")) << joined(notes);
 }
 
+// Issue 19: MINSERT counts whose product overflows 64 bits (2^32 x 2^32 wrapped to 0 and
+// passed the copy limit, then the loop ran 2^64 times) are too many copies: noted, ignored
+TEST(AssimpImport, DxfMinsertCountOverflowIsIgnored) {
+    TempDir dir;
+    std::string s = "0\nSECTION\n2\nBLOCKS\n";
+    s += "0\nBLOCK\n8\n0\n2\nTile\n70\n0\n10\n0\n20\n0\n30\n0\n";
+    s += dxf_face("0", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}});
+    s += "0\nENDBLK\n8\n0\n0\nENDSEC\n";
+    s += "0\nSECTION\n2\nENTITIES\n";
+    s += dxf_face("Floor", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}});
+    s += "0\nINSERT\n8\nMisc\n2\nTile\n70\n4294967296\n71\n4294967296\n";
+    s += "0\nINSERT\n8\nMisc\n2\nTile\n70\n9223372036854775807\n71\n2\n";
+    s += "0\nENDSEC\n0\nEOF\n";
+    const fs::path file = dir.write("overflow.dxf", s);
+    std::vector<std::string> notes;
+    const RawModel m = read_assimp(file, {}, notes);
+    EXPECT_EQ(m.faces.size(), 1U);
+    EXPECT_TRUE(any_note(notes, "too many copies ignored")) << joined(notes);
+}
+
+// Issue 19: nested MINSERTs asking for 10^10 faces in a few hundred bytes are refused, naming
+// the INSERT's line and handle, before anything is expanded
+TEST(AssimpImport, DxfInsertBombIsRefusedBeforeExpanding) {
+    TempDir dir;
+    std::string s = "0\nSECTION\n2\nBLOCKS\n";
+    s += "0\nBLOCK\n8\n0\n2\nB0\n70\n0\n10\n0\n20\n0\n30\n0\n";
+    s += dxf_face("0", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}});
+    s += "0\nENDBLK\n8\n0\n";
+    s += "0\nBLOCK\n8\n0\n2\nB1\n70\n0\n10\n0\n20\n0\n30\n0\n";
+    s += "0\nINSERT\n8\n0\n2\nB0\n70\n1000\n71\n100\n44\n1\n45\n1\n";
+    s += "0\nENDBLK\n8\n0\n";
+    s += "0\nBLOCK\n8\n0\n2\nB2\n70\n0\n10\n0\n20\n0\n30\n0\n";
+    s += "0\nINSERT\n8\n0\n2\nB1\n70\n1000\n71\n100\n44\n1000\n45\n100\n";
+    s += "0\nENDBLK\n8\n0\n0\nENDSEC\n";
+    s += "0\nSECTION\n2\nENTITIES\n";
+    s += dxf_face("Floor", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}});
+    s += "0\nINSERT\n5\n2A\n8\nMisc\n2\nB2\n";
+    s += "0\nENDSEC\n0\nEOF\n";
+    const fs::path file = dir.write("bomb.dxf", s);
+    expect_import_error(file, "(handle 2A) expands the blocks to more than 5000000 entities");
+    // The line of the INSERT (its "0" code line)
+    const std::size_t insert_at = s.find("0\nINSERT\n5\n2A");
+    const std::size_t line = static_cast<std::size_t>(
+        std::count(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(insert_at), '\n') + 1);
+    expect_import_error(file,
+                        file.string() + ":" + std::to_string(line) + ": INSERT of block 'B2'");
+}
+
 TEST(AssimpImport, IfcFzkHaus) {
     ABRAD_REQUIRE_SHARED_DATA("ifc/AC14-FZK-Haus.ifc");
     const fs::path file = kSharedData / "ifc/AC14-FZK-Haus.ifc";

@@ -4,6 +4,7 @@
 #include "abrad/convert/obj_import.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -446,6 +447,85 @@ TEST(ObjImport, ErrorsNameFileAndLine) {
     const fs::path mtl_nan = dir.write("nan.mtl", "newmtl a\nKe 1 nan 1\n");
     expect_error(dir.write("nanmtl.obj", "mtllib nan.mtl\n" + tri + "f 1 2 3\n"), ImportOptions{},
                  mtl_nan, 2, "non-finite");
+}
+
+// Issue 19: a device or FIFO as the model or as its mtllib would block or never end; only
+// regular files are read (the FIFO has no writer: opening it would wait forever)
+TEST(ObjImport, DevicesAndFifosAreRefused) {
+    TempDir dir;
+    const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    const fs::path fifo = dir / "fifo.obj";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    expect_error(fifo, 0, "not a regular file");
+    ASSERT_EQ(::mkfifo((dir / "fifo.mtl").c_str(), 0600), 0);
+    expect_error(dir.write("fifomtl.obj", "mtllib fifo.mtl\n" + tri), ImportOptions{},
+                 dir / "fifo.mtl", 0, "not a regular file");
+    ImportOptions outside;
+    outside.allow_outside_refs = true;
+    expect_error(dir.write("zero.obj", "mtllib /dev/zero\n" + tri), outside, "/dev/zero", 0,
+                 "not a regular file");
+}
+
+// Issue 19: files a model refers to stay inside its folder tree unless allowed, and nothing of
+// a file that is not a material library reaches the report
+TEST(ObjImport, MaterialLibrariesOutsideTheModelFolderAreRefused) {
+    TempDir dir;
+    const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    fs::create_directories(dir / "model/sub");
+    (void)dir.write("model/sub/in.mtl", "newmtl a\nKd 0.2 0.2 0.2\n");
+    (void)dir.write("secret.txt", "root:x:0:0:root:/root:/bin/bash\nsecret-token 42\n");
+    (void)dir.write("outside.mtl", "newmtl b\nKd 0.3 0.3 0.3\n");
+
+    // Inside (through a subfolder and back) is read
+    const ImportResult in = import_obj(
+        dir.write("model/in.obj", "mtllib sub/../sub/in.mtl\nusemtl a\n" + tri), ImportOptions{});
+    EXPECT_NE(find_material(in.scene, "a"), nullptr);
+
+    // Outside, relative or absolute, is refused at the mtllib line
+    const fs::path up = dir.write("model/up.obj", "mtllib ../secret.txt\n" + tri);
+    expect_error(up, 1, "outside the model's folder");
+    expect_error(
+        dir.write("model/abs.obj", "mtllib " + (dir / "outside.mtl").string() + "\n" + tri), 1,
+        "--allow-outside-refs");
+    // A symbolic link inside the folder to a file outside is outside
+    fs::create_symlink(dir / "outside.mtl", dir / "model/link.mtl");
+    expect_error(dir.write("model/link.obj", "mtllib link.mtl\n" + tri), 1,
+                 "outside the model's folder");
+
+    // Allowed: an outside library is read; a file that is not one fails without its content
+    ImportOptions allow;
+    allow.allow_outside_refs = true;
+    const ImportResult out =
+        import_obj(dir.write("model/out.obj", "mtllib ../outside.mtl\nusemtl b\n" + tri), allow);
+    EXPECT_NE(find_material(out.scene, "b"), nullptr);
+    try {
+        (void)import_obj(up, allow);
+        ADD_FAILURE() << "no ImportError for " << up;
+    } catch (const ImportError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("not a material library"), std::string::npos) << what;
+        EXPECT_EQ(what.find("/bin/bash"), std::string::npos) << what;
+        EXPECT_EQ(what.find("secret-token"), std::string::npos) << what;
+    }
+}
+
+// Issue 19: a face of 64k corners kept the ear clipper busy for minutes; faces over 2048
+// corners are refused at their line, and one of 2048 (a convex circle) is triangulated
+TEST(ObjImport, PolygonsOverTheCornerLimitAreRefused) {
+    TempDir dir;
+    const auto circle = [](std::size_t n) {
+        std::string s;
+        for (std::size_t i = 0; i < n; ++i) {
+            const double a = 2.0 * M_PI * static_cast<double>(i) / static_cast<double>(n);
+            s += "v " + std::to_string(std::cos(a)) + " " + std::to_string(std::sin(a)) + " 0\n";
+        }
+        s += "f";
+        for (std::size_t i = 1; i <= n; ++i) s += " " + std::to_string(i);
+        return s + "\n";
+    };
+    expect_error(dir.write("big.obj", circle(2049)), 2050, "polygon with 2049 corners");
+    const ImportResult r = import_obj(dir.write("limit.obj", circle(2048)), ImportOptions{});
+    EXPECT_EQ(r.report.triangles, 2046U);
 }
 
 TEST(ObjImport, CornellBoxOriginal) {

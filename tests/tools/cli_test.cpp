@@ -413,7 +413,9 @@ TEST_F(Cli, SurveyCoordinatesBakeAsAtTheOrigin) {
     const std::string at_origin = path("origin.visdb").string();
     const std::string at_survey = path("survey.visdb").string();
     ASSERT_EQ(run("import " + model.string() + " --db " + at_origin).status, 0);
-    const Result imported = run("import " + write("survey.obj", shifted) + " --db " + at_survey);
+    // The sample's material library is outside the temporary folder
+    const Result imported =
+        run("import " + write("survey.obj", shifted) + " --allow-outside-refs --db " + at_survey);
     ASSERT_EQ(imported.status, 0) << imported.output;
     for (const std::string& db : {at_origin, at_survey}) {
         ASSERT_EQ(run("bake --bounces 0 --db " + db + " --name off --dm off").status, 0);

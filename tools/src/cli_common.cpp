@@ -44,6 +44,9 @@ void add_import_options(CLI::App& app, ImportArgs& a) {
     app.add_option("--scene", a.scene,
                    "Scene file (TOML): unit, up axis, origin shift, material and light rules by "
                    "object/layer/material name, emitter rectangles, cameras, exclusions, grids");
+    app.add_flag("--allow-outside-refs", a.allow_outside_refs,
+                 "Read files a model refers to (an OBJ's mtllib) even when they are outside the "
+                 "model's folder tree (refused by default)");
 }
 
 void add_bake_options(CLI::App& app, BakeArgs& a) {

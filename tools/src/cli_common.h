@@ -61,6 +61,7 @@ struct ImportArgs {
     std::string up;    ///< empty: the scene file's, else the format's convention
     std::optional<double> weld;
     std::string scene;
+    bool allow_outside_refs = false;  ///< read files a model refers to outside its folder
 };
 
 /// Options of a bake (bake, run, bench).
@@ -101,7 +102,7 @@ struct ViewArgs {
 
 /// The model-file arguments: MODEL (required) with the formats convert reads.
 void add_model_arguments(CLI::App& app, ImportArgs& a);
-/// --unit, --up, --weld, --scene.
+/// --unit, --up, --weld, --scene, --allow-outside-refs.
 void add_import_options(CLI::App& app, ImportArgs& a);
 /// --name, --method, --resolution ... --reach.
 void add_bake_options(CLI::App& app, BakeArgs& a);

@@ -61,6 +61,7 @@ visdb::Scene read_models(const ImportArgs& a) {
     if (!a.unit.empty()) options.unit = a.unit;
     if (!a.up.empty()) options.up = a.up.front();
     if (a.weld) options.weld_tolerance = *a.weld;
+    options.allow_outside_refs = a.allow_outside_refs;
     for (const std::string& model : a.models) {
         convert::ImportResult r;
         try {

@@ -39,6 +39,9 @@ struct ImportOptions {
     glm::dvec3 origin_shift{0.0};
     /// Vertices closer than this fraction of the model's bounding-box diagonal are welded.
     double weld_tolerance = 1e-6;
+    /// Files a model refers to (an OBJ's `mtllib`) must be inside
+    /// the model's folder tree, else the import fails; true reads them wherever they are.
+    bool allow_outside_refs = false;
 };
 
 /// Metres per unit for "mm", "cm", "m", "in", "ft"; throws std::invalid_argument otherwise.
