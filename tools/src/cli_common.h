@@ -81,10 +81,10 @@ struct BakeArgs {
     std::string shading = "exact";
     int threads = 0;
     std::string dm = "on";
-    std::string lights = "area";
+    std::string lights = "vertices";
     double dm_angle = 0.0;
     int refine_rounds = 4;
-    double refine_tolerance = 0.1;
+    double refine_tolerance = 0.07;
     double refine_min_edge = 0.05;
     double reach = 0.0;
 };

@@ -78,12 +78,12 @@ struct BakeOptions {
     /// Discontinuity meshing: receivers re-meshed along the shadow edges (CGAL CDT per
     /// planar region), then refined where the exact irradiance departs from linear.
     bool dm = true;
-    LightModel lights = LightModel::Area;  ///< how lights cast shadow edges
+    LightModel lights = LightModel::Vertices;  ///< how lights cast shadow edges
     double dm_min_angle = 0.0;  ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
     int refine_rounds = 4;      ///< illumination-driven refinement rounds (0 = shadow edges only)
-    double refine_tolerance = 0.1;  ///< split an edge when its midpoint's exact irradiance departs
-                                    ///< from the linear interpolation by more than this, relative
-    double refine_min_edge = 0.05;  ///< edges shorter than this (metres) are not split
+    double refine_tolerance = 0.07;  ///< split an edge when its midpoint's exact irradiance departs
+                                     ///< from the linear interpolation by more than this, relative
+    double refine_min_edge = 0.05;   ///< edges shorter than this (metres) are not split
 };
 
 /// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces in [-1, 1000],
