@@ -130,7 +130,7 @@ inline std::vector<Point> obstruction_points() {
             points.push_back({label("floor", x0, y0),
                               {x, n},
                               kM * lambert_ff(x, n, rect_z(lo, 0.5, -0.5, 0.5, 3))});
-            if ((x0 < 0.0 && !(x0 == -0.25 && y0 == 0.3)) || (x0 == 0.25 && y0 == 0.3))
+            if (x0 < 0.0 && !(x0 == -0.25 && y0 == 0.3))
                 points.back().defect = kRefinementInThePenumbra;
         }
     return points;
