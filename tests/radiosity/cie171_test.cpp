@@ -33,6 +33,8 @@
 namespace abrad::radiosity {
 namespace {
 
+using abrad::testing::mean_irradiance;
+
 using namespace cie171;  // NOLINT(google-build-using-namespace): the cases' shared parts
 
 // ---- Reading a bake ----
@@ -40,23 +42,6 @@ using namespace cie171;  // NOLINT(google-build-using-namespace): the cases' sha
 // The exported field at p (mesh_checks.h).
 std::optional<double> gouraud_at(const visdb::Bake& b, const dvec3& p, const dvec3& n) {
     return abrad::testing::gouraud_at(b.mesh, p, n);
-}
-
-// Area-weighted mean irradiance (mean over RGB) of the exported field over the whole mesh.
-double mean_irradiance(const visdb::Bake& b, double* area_out = nullptr) {
-    double sum = 0.0, area = 0.0;
-    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
-        const double a = abrad::testing::triangle_area(b.mesh, t);
-        double h = 0.0;
-        for (int k = 0; k < 3; ++k) {
-            const glm::vec3 x = b.mesh.irradiance[b.mesh.triangles[t][k]];
-            h += (double(x.x) + x.y + x.z) / 9.0;
-        }
-        sum += a * h;
-        area += a;
-    }
-    if (area_out) *area_out = area;
-    return sum / area;
 }
 
 // ---- One row of a case's table ----

@@ -20,6 +20,8 @@
 namespace abrad::radiosity {
 namespace {
 
+using abrad::testing::mean_irradiance;
+
 using abrad::testing::quad_grid;
 using testing::ff_parallel_rect;
 
@@ -75,23 +77,6 @@ visdb::Scene room(const RoomSpec& spec) {
     s.surfaces.push_back(ceiling);
     s.surfaces.push_back(facing("light", 3, {-0.5, -0.5, 3}, {1, 0, 0}, {0, 1, 0}, 1, mid));
     return s;
-}
-
-// Area-weighted mean irradiance (mean over RGB) of the bake's Gouraud-interpolated mesh.
-double mean_irradiance(const visdb::Bake& b, double* area_out = nullptr) {
-    double sum = 0.0, area = 0.0;
-    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
-        const double a = abrad::testing::triangle_area(b.mesh, t);
-        double h = 0.0;
-        for (int k = 0; k < 3; ++k) {
-            const glm::vec3 x = b.mesh.irradiance[b.mesh.triangles[t][k]];
-            h += (x.x + x.y + x.z) / 9.0;
-        }
-        sum += a * h;
-        area += a;
-    }
-    if (area_out) *area_out = area;
-    return sum / area;
 }
 
 BakeOptions quick(int bounces) {

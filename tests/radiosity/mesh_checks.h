@@ -90,4 +90,22 @@ inline std::optional<double> gouraud_at(const visdb::BakeMesh& m, const glm::dve
     return std::nullopt;
 }
 
+// Area-weighted mean irradiance (mean over RGB) of the mesh's Gouraud-interpolated field;
+// the total area goes to `area_out` when given.
+inline double mean_irradiance(const visdb::Bake& b, double* area_out = nullptr) {
+    double sum = 0.0, area = 0.0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        const double a = triangle_area(b.mesh, t);
+        double h = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            const glm::vec3 x = b.mesh.irradiance[b.mesh.triangles[t][k]];
+            h += (double(x.x) + x.y + x.z) / 9.0;
+        }
+        sum += a * h;
+        area += a;
+    }
+    if (area_out) *area_out = area;
+    return sum / area;
+}
+
 }  // namespace abrad::testing
