@@ -36,10 +36,11 @@ Patch light_down(dvec3 c, double s = 0.1) {
 dvec3 proj(dvec3 L, dvec3 v) { return L + (v - L) * (L.z / (L.z - v.z)); }
 
 std::vector<ShadowSegment> cast(const Patch& light, LightModel model, const Patch& receiver,
-                                const std::vector<Patch>& occ, ShadowStats* stats = nullptr) {
+                                const std::vector<Patch>& occ, ShadowStats* stats = nullptr,
+                                const EmitterEdges& emitter = {}) {
     std::vector<const Patch*> ptr;
     for (const auto& o : occ) ptr.push_back(&o);
-    return shadow_edges(light, model, receiver, ptr, 1e-9, stats);
+    return shadow_edges(light, model, receiver, ptr, 1e-9, stats, emitter);
 }
 
 bool near(dvec3 a, dvec3 b, double tol) { return glm::length(a - b) <= tol; }
@@ -242,10 +243,7 @@ TEST(ShadowEdges, PanelDiagonalCastsNothing) {
         for (const auto& g : cast(light, LightModel::Area, floor_big(), occ)) plain.push_back(g);
         EmitterEdges emitter;
         emitter.interior[static_cast<std::size_t>(diagonal)] = true;
-        std::vector<const Patch*> ptr;
-        for (const auto& o : occ) ptr.push_back(&o);
-        for (const auto& g :
-             shadow_edges(light, LightModel::Area, floor_big(), ptr, 1e-9, nullptr, emitter))
+        for (const auto& g : cast(light, LightModel::Area, floor_big(), occ, nullptr, emitter))
             marked.push_back(g);
     }
     EXPECT_GE(on_diagonal_wedge(plain), 4) << dump(plain);
@@ -265,9 +263,7 @@ TEST(ShadowEdges, CornerInsideAnEmitterCastsNothing) {
     EmitterEdges emitter;
     emitter.interior = {true, false, true};  // edges c-p1 and p2-c
     ASSERT_TRUE(emitter.corner_inside(0));
-    std::vector<const Patch*> ptr{&occ[0]};
-    const auto s =
-        shadow_edges(light, LightModel::Vertices, floor_big(), ptr, 1e-9, nullptr, emitter);
+    const auto s = cast(light, LightModel::Vertices, floor_big(), occ, nullptr, emitter);
     ASSERT_EQ(s.size(), 6u) << dump(s);  // three occluder edges from each of p1 and p2
     for (int e = 0; e < 3; ++e)
         EXPECT_EQ(count_segment(s, proj(c, occ[0].p[e]), proj(c, occ[0].p[(e + 1) % 3]), 1e-9), 0)
