@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "hostile_files.h"
 #include "raw_model.h"
 #include "shared_data.h"
 #include "temp_dir.h"
@@ -687,28 +688,13 @@ TEST(AssimpImport, DxfMinsertCountOverflowIsIgnored) {
 // the INSERT's line and handle, before anything is expanded
 TEST(AssimpImport, DxfInsertBombIsRefusedBeforeExpanding) {
     TempDir dir;
-    std::string s = "0\nSECTION\n2\nBLOCKS\n";
-    s += "0\nBLOCK\n8\n0\n2\nB0\n70\n0\n10\n0\n20\n0\n30\n0\n";
-    s += dxf_face("0", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}});
-    s += "0\nENDBLK\n8\n0\n";
-    s += "0\nBLOCK\n8\n0\n2\nB1\n70\n0\n10\n0\n20\n0\n30\n0\n";
-    s += "0\nINSERT\n8\n0\n2\nB0\n70\n1000\n71\n100\n44\n1\n45\n1\n";
-    s += "0\nENDBLK\n8\n0\n";
-    s += "0\nBLOCK\n8\n0\n2\nB2\n70\n0\n10\n0\n20\n0\n30\n0\n";
-    s += "0\nINSERT\n8\n0\n2\nB1\n70\n1000\n71\n100\n44\n1000\n45\n100\n";
-    s += "0\nENDBLK\n8\n0\n0\nENDSEC\n";
-    s += "0\nSECTION\n2\nENTITIES\n";
-    s += dxf_face("Floor", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}});
-    s += "0\nINSERT\n5\n2A\n8\nMisc\n2\nB2\n";
-    s += "0\nENDSEC\n0\nEOF\n";
+    const std::string s = abrad::testing::dxf_insert_bomb("2A");
     const fs::path file = dir.write("bomb.dxf", s);
     expect_import_error(file, "(handle 2A) expands the blocks to more than 5000000 entities");
     // The line of the INSERT (its "0" code line)
-    const std::size_t insert_at = s.find("0\nINSERT\n5\n2A");
-    const std::size_t line = static_cast<std::size_t>(
-        std::count(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(insert_at), '\n') + 1);
-    expect_import_error(file,
-                        file.string() + ":" + std::to_string(line) + ": INSERT of block 'B2'");
+    expect_import_error(file, file.string() + ":" +
+                                  std::to_string(abrad::testing::line_of(s, "0\nINSERT\n5\n2A")) +
+                                  ": INSERT of block 'B2'");
 }
 
 TEST(AssimpImport, IfcFzkHaus) {

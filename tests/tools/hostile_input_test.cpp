@@ -9,6 +9,7 @@
 #include <string>
 
 #include "abrad/visdb/store.h"
+#include "hostile_files.h"
 #include "run_abrad.h"
 #include "temp_dir.h"
 
@@ -23,22 +24,6 @@ using abrad::testing::TempDir;
 
 const std::string kTriangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
-/// Nested MINSERTs: 100,000 copies of 100,000 copies of one 3DFACE (10^10 faces).
-std::string dxf_insert_bomb() {
-    std::string s = "0\nSECTION\n2\nBLOCKS\n";
-    s += "0\nBLOCK\n8\n0\n2\nB0\n10\n0\n20\n0\n30\n0\n";
-    s += "0\n3DFACE\n8\n0\n10\n0\n20\n0\n30\n0\n11\n1\n21\n0\n31\n0\n12\n1\n22\n1\n32\n0\n";
-    s += "0\nENDBLK\n";
-    s += "0\nBLOCK\n8\n0\n2\nB1\n10\n0\n20\n0\n30\n0\n";
-    s += "0\nINSERT\n8\n0\n2\nB0\n70\n1000\n71\n100\n44\n1\n45\n1\n0\nENDBLK\n";
-    s += "0\nBLOCK\n8\n0\n2\nB2\n10\n0\n20\n0\n30\n0\n";
-    s += "0\nINSERT\n8\n0\n2\nB1\n70\n1000\n71\n100\n44\n1\n45\n1\n0\nENDBLK\n";
-    s += "0\nENDSEC\n0\nSECTION\n2\nENTITIES\n";
-    s += "0\nINSERT\n5\nBEEF\n8\nMisc\n2\nB2\n";
-    s += "0\nENDSEC\n0\nEOF\n";
-    return s;
-}
-
 TEST(HostileInput, RefusedWithExitTwoAndTheDatabaseUnchanged) {
     TempDir dir("hostile");
     const fs::path db = dir / "room.visdb";
@@ -47,7 +32,8 @@ TEST(HostileInput, RefusedWithExitTwoAndTheDatabaseUnchanged) {
     ASSERT_EQ(run_abrad("import " + good.string() + " --db " + db.string()).status, 0);
     const std::string before = file_bytes(db);
 
-    const fs::path bomb = dir.write("model/bomb.dxf", dxf_insert_bomb());
+    const std::string bomb_text = abrad::testing::dxf_insert_bomb("BEEF");
+    const fs::path bomb = dir.write("model/bomb.dxf", bomb_text);
     const fs::path fifo = dir / "model/fifo.obj";
     ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
     (void)dir.write("secret.txt", "secret-token 42\n");
@@ -57,7 +43,9 @@ TEST(HostileInput, RefusedWithExitTwoAndTheDatabaseUnchanged) {
         std::string message;
     };
     for (const Case& c :
-         {Case{bomb, bomb.string() + ":103: INSERT of block 'B2' (handle BEEF) expands"},
+         {Case{bomb, bomb.string() + ":" +
+                         std::to_string(abrad::testing::line_of(bomb_text, "0\nINSERT\n5\nBEEF")) +
+                         ": INSERT of block 'B2' (handle BEEF) expands"},
           Case{fifo, fifo.string() + ": is not a regular file"},
           Case{outside, outside.string() + ":1: material library '"}}) {
         const Result r = run_abrad("import " + c.model.string() + " --db " + db.string());
