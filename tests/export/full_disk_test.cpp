@@ -11,6 +11,7 @@
 
 #include "abrad/export/image.h"
 #include "abrad/export/writers.h"
+#include "export_scenes.h"
 #include "file_size_limit.h"
 #include "temp_dir.h"
 
@@ -32,15 +33,7 @@ visdb::BakeMesh small_mesh() {
     return m;
 }
 
-visdb::Scene two_surfaces() {
-    visdb::Scene s;
-    s.materials = {{.name = "floor"}, {.name = "wall"}};
-    s.surfaces.resize(2);
-    s.surfaces[0].name = "floor";
-    s.surfaces[1].name = "wall";
-    s.surfaces[1].material = 1;
-    return s;
-}
+using abrad::testing::two_surfaces;
 
 struct Writer {
     const char* file;

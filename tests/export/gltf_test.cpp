@@ -11,6 +11,7 @@
 
 #include "abrad/export/text.h"
 #include "abrad/export/writers.h"
+#include "export_scenes.h"
 #include "temp_dir.h"
 
 namespace fs = std::filesystem;
@@ -34,16 +35,7 @@ visdb::BakeMesh survey_mesh() {
     return m;
 }
 
-visdb::Scene two_surfaces() {
-    visdb::Scene s;
-    s.materials = {{.name = "floor"}, {.name = "wall"}};
-    s.surfaces.resize(2);
-    s.surfaces[0].name = "floor";
-    s.surfaces[0].material = 0;
-    s.surfaces[1].name = "wall";
-    s.surfaces[1].material = 1;
-    return s;
-}
+using abrad::testing::two_surfaces;
 
 std::vector<float> read_vec3(const tinygltf::Model& model, int accessor) {
     const auto& a = model.accessors[static_cast<std::size_t>(accessor)];
