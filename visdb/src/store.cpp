@@ -19,7 +19,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <bit>
 #include <cerrno>
 #include <charconv>
@@ -38,6 +37,8 @@
 #include <type_traits>
 #include <unordered_map>
 #include <utility>
+
+#include "abrad/atomic_file.h"
 
 namespace abrad::visdb {
 namespace {
@@ -597,9 +598,7 @@ auto& live(const ImplPtr& impl) {
 // foreign one. When another process created `path` meanwhile, the link fails and its file is
 // kept. Errors name `path`; the temporary is removed either way.
 void create_database(const std::string& path) {
-    static std::atomic<unsigned> counter{0};  // only makes names unique within the process
-    const std::string tmp =
-        path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+    const std::string tmp = temporary_name(path);
     const auto remove_tmp = [&] {
         std::remove(tmp.c_str());
         std::remove((tmp + "-journal").c_str());

@@ -35,15 +35,12 @@ class OutputError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-namespace detail {
-
-/// `PATH.tmp-<pid>-<n>`: unique among the temporaries of every process writing `path`.
+/// `PATH.tmp-<pid>-<n>`: a temporary's name beside `path`, unique among the temporaries of
+/// every process writing `path` (also the store's, for a database being created).
 inline std::string temporary_name(const std::filesystem::path& path) {
     static std::atomic<unsigned> counter{0};  // only makes names unique within the process
     return path.string() + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
 }
-
-}  // namespace detail
 
 /// A file written to a temporary beside `PATH` and renamed to `PATH` by commit(). Destroying
 /// it without a successful commit() removes the temporary. Errors throw `Error` (constructible
@@ -62,7 +59,7 @@ class BasicAtomicFile {
         if (::access("/proc/self/fd", X_OK) == 0)
             fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
         if (fd < 0 && (errno == EOPNOTSUPP || errno == EISDIR || errno == EINVAL)) {
-            m_tmp = detail::temporary_name(m_path);
+            m_tmp = temporary_name(m_path);
             fd = ::open(m_tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
             if (fd < 0) m_tmp.clear();
         }
@@ -106,7 +103,7 @@ class BasicAtomicFile {
         // Give an unnamed temporary its name while its descriptor is still open
         if (m_tmp.empty()) {
             const std::string self = "/proc/self/fd/" + std::to_string(::fileno(m_file));
-            const std::string name = detail::temporary_name(m_path);
+            const std::string name = temporary_name(m_path);
             if (::linkat(AT_FDCWD, self.c_str(), AT_FDCWD, name.c_str(), AT_SYMLINK_FOLLOW) != 0)
                 fail_io(errno);
             m_tmp = name;
