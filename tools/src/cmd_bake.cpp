@@ -193,6 +193,15 @@ void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visd
     }
 }
 
+// Stores `bake` under its name or, without one, as the next bake-N (numbered inside the
+// store's write transaction), and keeps the name it got.
+void store_bake(visdb::Store& store, visdb::Bake& bake) {
+    if (bake.name.empty())
+        bake.name = store.add_numbered_bake(bake);
+    else
+        store.add_bake(bake);
+}
+
 // A bake computed but not stored because its database stayed busy (another process's lock
 // or open read held past the busy timeout) is not thrown away: it is stored with its scene
 // in a new database beside the first, `<db stem>.unstored-<pid>.visdb`, and the command fails
@@ -207,10 +216,7 @@ void evaluate_grids(const std::string& db, const visdb::Scene& scene, const visd
     try {
         visdb::Store side = visdb::Store::open(kept.string(), visdb::OpenMode::CreateOrOpen);
         side.add_import(scene);
-        if (bake.name.empty())
-            bake.name = side.add_numbered_bake(bake);
-        else
-            side.add_bake(bake);
+        store_bake(side, bake);
     } catch (const std::exception& e) {
         std::error_code ec;
         fs::remove(kept, ec);
@@ -247,10 +253,7 @@ visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& optio
     }
     b.created_at = utc_now();
     try {
-        if (b.name.empty())
-            b.name = store.add_numbered_bake(b);
-        else
-            store.add_bake(b);
+        store_bake(store, b);
     } catch (const visdb::StoreError& e) {
         if (!e.busy()) throw;
         keep_unstored_bake(db, scene, b, e);
