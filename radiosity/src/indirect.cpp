@@ -239,6 +239,10 @@ class Solver {
         m_bvh = std::make_unique<Bvh>(m_in.patches);
         make_shooters();
         m_shoot.bvh = m_bvh.get();
+        // Walls and slabs (a cell and larger) are rasterized first by every row's hemicube
+        m_occluders =
+            large_occluders(m_in.patches, m_options.element_size * m_options.element_size);
+        m_shoot.occluders_first = m_occluders;
         m_shoot.targets = m_targets.get();
         shoot_lights();
         m_r.resize(m_ne);
@@ -744,6 +748,7 @@ class Solver {
     ShootOptions m_shoot;
     const std::vector<glm::dvec3> m_region_normal;
     std::unique_ptr<Bvh> m_bvh;
+    std::vector<std::uint32_t> m_occluders;  // large_occluders: rasterized first by each row
     std::string m_label;
     IndirectSolution m_sol;
     std::vector<visdb::Rgb> m_rho_area;
@@ -795,6 +800,8 @@ IndirectField::IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& m
         m_reflected.push_back(glm::max(b / 3.0, visdb::Rgb(0.0)));
     }
     m_bvh.emplace(m_patches);
+    // Walls and slabs, rasterized first by every gather
+    m_occluders = large_occluders(m_patches, kOccluderArea);
 }
 
 visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3& n) const {
@@ -804,7 +811,8 @@ visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3
                                     .subpixels = 8,
                                     .occlusion = false,
                                     .bvh = &*m_bvh,
-                                    .sparse = true});
+                                    .sparse = true,
+                                    .occluders_first = m_occluders});
     visdb::Rgb h(0.0);
     for (const auto [j, f] : shot.hits)
         // A surface reflects from its front only

@@ -10,6 +10,7 @@
 #include "abrad/radiosity/shoot.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -78,16 +79,34 @@ struct Mask {
     }
 };
 
-// Each sample of an S mask becomes a 2×2 block of a 2S mask.
+// Each sample of an S mask becomes a 2×2 block of a 2S mask: a row's bits are spread (bit c to
+// bits 2c and 2c + 1) a byte at a time and written to two rows. S divides 64, so no row of
+// either mask straddles a word.
+constexpr std::array<std::uint16_t, 256> kSpreadByte = [] {
+    std::array<std::uint16_t, 256> t{};
+    for (unsigned b = 0; b < 256; ++b)
+        for (unsigned c = 0; c < 8; ++c)
+            if ((b >> c) & 1u) t[b] = static_cast<std::uint16_t>(t[b] | (3u << (2 * c)));
+    return t;
+}();
+
 template <int S>
 Mask<2 * S> upsample(const Mask<S>& m) {
+    static_assert(64 % S == 0 && 64 % (2 * S) == 0);
+    constexpr std::uint64_t kRow = S == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << S) - 1;
     Mask<2 * S> r;
-    for (int k = 0; k < S; ++k)
-        for (int c = 0; c < S; ++c)
-            if (m.test(k, c)) {
-                r.set_row(2 * k, 2 * c, 2 * c + 2);
-                r.set_row(2 * k + 1, 2 * c, 2 * c + 2);
-            }
+    for (int k = 0; k < S; ++k) {
+        const int bit = k * S;
+        const std::uint64_t row = (m.w[bit / 64] >> (bit % 64)) & kRow;
+        if (row == 0) continue;
+        std::uint64_t spread = 0;
+        for (int b = 0; b < S; b += 8)
+            spread |= std::uint64_t{kSpreadByte[(row >> b) & 0xFFu]} << (2 * b);
+        for (const int fine_row : {2 * k, 2 * k + 1}) {
+            const int fb = fine_row * 2 * S;
+            r.w[fb / 64] |= spread << (fb % 64);
+        }
+    }
     return r;
 }
 
@@ -237,6 +256,14 @@ struct FragmentBuffer {
     std::vector<std::uint32_t> patch_of;   // local id → patch index
     std::vector<double> opacity;           // local id → opacity
     std::vector<std::uint32_t> target_of;  // local target id → target (with Targets)
+    // Empties the buffer, keeping its storage for the thread's next shot
+    void clear() {
+        fragments.clear();
+        fine.clear();
+        patch_of.clear();
+        opacity.clear();
+        target_of.clear();
+    }
 };
 
 // Targets' ids → local ids of one shot: open addressing, grown at half load.
@@ -281,6 +308,13 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
     const int j0 = std::max(0, static_cast<int>(std::floor(ymin)));
     const int j1 = std::min(H, static_cast<int>(std::ceil(ymax)));
     const std::size_t base = hc.face_offset(face);
+    double xlo = p[0].x, xhi = p[0].x;
+    for (const auto& v : p) {
+        xlo = std::min(xlo, v.x);
+        xhi = std::max(xhi, v.x);
+    }
+    const bool in_one_pixel =
+        j1 - j0 == 1 && ymin >= j0 && ymax <= j0 + 1.0 && std::floor(xlo) + 1.0 >= xhi;
 
     RowSpans<S> coarse;
     RowSpans<2 * S> fine;
@@ -303,14 +337,20 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
             const Mask<S> mask = coarse.mask(i, y0, sx, sy);
             std::uint32_t fine_index = kNoPatch;
             if (mask.empty()) {
-                if (!strip_ready) {
-                    strip = clip_polygon(p, [&](const glm::dvec2& v) { return v.y - y0; });
-                    strip = clip_polygon(strip, [&](const glm::dvec2& v) { return y1 - v.y; });
-                    strip_ready = true;
-                }
                 // Clip to the pixel: touching with positive area but no sample = undersampled
-                Poly2 px = clip_polygon(strip, [&](const glm::dvec2& v) { return v.x - i; });
-                px = clip_polygon(px, [&](const glm::dvec2& v) { return (i + 1.0) - v.x; });
+                // (a polygon within the pixel is its own clip: the clippers keep it whole)
+                Poly2 px;
+                if (in_one_pixel) {
+                    px = p;
+                } else {
+                    if (!strip_ready) {
+                        strip = clip_polygon(p, [&](const glm::dvec2& v) { return v.y - y0; });
+                        strip = clip_polygon(strip, [&](const glm::dvec2& v) { return y1 - v.y; });
+                        strip_ready = true;
+                    }
+                    px = clip_polygon(strip, [&](const glm::dvec2& v) { return v.x - i; });
+                    px = clip_polygon(px, [&](const glm::dvec2& v) { return (i + 1.0) - v.x; });
+                }
                 if (px.size() < 3 || std::abs(signed_area2(px)) <= 1e-14) continue;
                 if (!fine_ready) {
                     fine.compute(p, y0);
@@ -541,7 +581,13 @@ class ClosedPixels {
         for (std::size_t f = first; f < buffer.fragments.size(); ++f) {
             const Fragment<S>& frag = buffer.fragments[f];
             float& cd = m_closed_depth[frag.pixel];
-            if (frag.fine != kNoPatch || !std::isinf(cd)) continue;  // no coarse samples, or closed
+            if (frag.fine != kNoPatch) continue;  // no coarse samples
+            // A fragment covering the whole pixel closes it at its own depth
+            if (std::equal(frag.mask.w, frag.mask.w + Mask<S>::kWords, full.w)) {
+                cd = std::min(cd, frag.depth);
+                continue;
+            }
+            if (!std::isinf(cd)) continue;  // closed
             Mask<S>& m = m_covered[frag.pixel];
             for (int w = 0; w < Mask<S>::kWords; ++w) m.w[w] |= frag.mask.w[w];
             m_deepest[frag.pixel] = std::max(m_deepest[frag.pixel], frag.depth);
@@ -605,12 +651,10 @@ bool box_hidden(const ShooterFrame& frame, const Hemicube& hc, const ClosedPixel
 // whole nodes) behind closed pixels when no occlusion lists are asked for (Algorithm 2 lists
 // hidden patches behind their occluders too).
 template <int S>
-FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch> patches,
-                               const Hemicube& hc, const ShootOptions& options,
-                               ShootResult& result) {
+void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, const Hemicube& hc,
+                  const ShootOptions& options, FragmentBuffer<S>& buffer, ShootResult& result) {
     const bool cull = !options.occlusion;
     ClosedPixels<S> closed(hc.pixel_count());
-    FragmentBuffer<S> buffer;
     LocalIds local_targets;
     // With Targets: each new fragment's form factor goes to the target holding the point its
     // pixel centre sees at its depth
@@ -658,6 +702,17 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
         });
     };
     if (options.bvh && !options.only) {
+        // Large occluders first: the walls and slabs close pixels before the clutter behind
+        // them is walked
+        const std::span<const std::uint32_t> first = options.occluders_first;
+        for (const std::uint32_t id : first) {
+            const Patch& pt = patches[id];
+            const auto ahead = [&](const glm::dvec3& x) {
+                return glm::dot(x - frame.origin, frame.n) > 0.0;
+            };
+            if (id != options.exclude && (ahead(pt.p[0]) || ahead(pt.p[1]) || ahead(pt.p[2])))
+                rasterize(id);
+        }
         options.bvh->front_to_back(
             frame.origin,
             [&](const Box& box) {
@@ -666,7 +721,9 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
                 return false;
             },
             [&](std::uint32_t id) {
-                if (id != options.exclude && id < patches.size()) rasterize(id);
+                if (id != options.exclude && id < patches.size() &&
+                    !std::binary_search(first.begin(), first.end(), id))
+                    rasterize(id);
             });
     } else {
         for (const auto& nearest_and_patch : front_to_back(frame, patches, options))
@@ -674,7 +731,6 @@ FragmentBuffer<S> scan_convert(const ShooterFrame& frame, std::span<const Patch>
     }
     result.visited = buffer.patch_of.size();
     result.fragments = buffer.fragments.size();
-    return buffer;
 }
 
 // Per pixel, the depth-sorted fragment list: form factors propagated through it (PropFF) into
@@ -755,7 +811,10 @@ template <int S>
 ShootResult shoot_with(const ShooterFrame& frame, std::span<const Patch> patches,
                        const Hemicube& hc, const ShootOptions& options) {
     ShootResult result;
-    const FragmentBuffer<S> buffer = scan_convert<S>(frame, patches, hc, options, result);
+    // Each thread keeps its buffer's storage from shot to shot
+    thread_local FragmentBuffer<S> buffer;
+    buffer.clear();
+    scan_convert<S>(frame, patches, hc, options, buffer, result);
     // Form factors by local target id: the patch's own, or a Targets' (each visited once)
     const std::vector<std::uint32_t>& target_of =
         options.targets ? buffer.target_of : buffer.patch_of;
@@ -819,6 +878,14 @@ ShootResult shoot(const ShooterFrame& frame, std::span<const Patch> patches,
             throw std::invalid_argument("A-buffer subpixels must be 4, 8 or 16, got " +
                                         std::to_string(options.subpixels));
     }
+}
+
+std::vector<std::uint32_t> large_occluders(std::span<const Patch> patches, double min_area) {
+    std::vector<std::uint32_t> ids;
+    for (std::size_t t = 0; t < patches.size(); ++t)
+        if (patches[t].opacity >= 1.0 && area(patches[t]) >= min_area)
+            ids.push_back(static_cast<std::uint32_t>(t));
+    return ids;
 }
 
 std::string to_string(Visibility method) {

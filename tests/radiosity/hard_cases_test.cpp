@@ -400,6 +400,64 @@ TEST(Cull, CandidatesAreThePatchesInFrontWithinReach) {
     EXPECT_EQ(light_candidates(bvh, patches, 0, 10.0), (std::vector<std::uint32_t>{1, 2, 7, 8}));
 }
 
+// A closed room (4 × 4 × 3 m, one quad per wall) with small cubes inside and outside it, and
+// a translucent pane inside: the hemicube's culling walk (BVH, closed pixels, the walls
+// rasterized first) gives the plain walk's form factors bit for bit and visits less.
+TEST(Cull, OccludersFirstChangeNoFormFactorAndVisitLess) {
+    std::vector<Patch> p;
+    using V = glm::dvec3;
+    testing::add_quad(p, {0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0});  // floor
+    testing::add_quad(p, {0, 0, 3}, {0, 4, 3}, {4, 4, 3}, {4, 0, 3});  // ceiling
+    testing::add_quad(p, {0, 0, 0}, {0, 0, 3}, {4, 0, 3}, {4, 0, 0});  // walls
+    testing::add_quad(p, {4, 0, 0}, {4, 0, 3}, {4, 4, 3}, {4, 4, 0});
+    testing::add_quad(p, {4, 4, 0}, {4, 4, 3}, {0, 4, 3}, {0, 4, 0});
+    testing::add_quad(p, {0, 4, 0}, {0, 4, 3}, {0, 0, 3}, {0, 0, 0});
+    testing::add_quad(p, {1, 1, 1}, {3, 1, 1}, {3, 1, 2}, {1, 1, 2}, 0.3);  // translucent pane
+    const auto cube = [&](const V& o, double s) {
+        const V x{s, 0, 0}, y{0, s, 0}, z{0, 0, s};
+        testing::add_quad(p, o, o + y, o + x + y, o + x);
+        testing::add_quad(p, o + z, o + x + z, o + x + y + z, o + y + z);
+        testing::add_quad(p, o, o + x, o + x + z, o + z);
+        testing::add_quad(p, o + y, o + y + z, o + x + y + z, o + x + y);
+        testing::add_quad(p, o, o + z, o + y + z, o + y);
+        testing::add_quad(p, o + x, o + x + y, o + x + y + z, o + x + z);
+    };
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) {
+            cube({0.3 + 0.6 * i, 0.3 + 0.6 * j, 0.5 + 0.3 * ((i + j) % 3)}, 0.08);  // inside
+            cube({6.0 + 0.6 * i, 0.3 + 0.6 * j, 1.0}, 0.2);                         // outside
+        }
+    const Bvh bvh(p);
+    const std::vector<std::uint32_t> walls = large_occluders(p, 1.0);
+    EXPECT_EQ(walls.size(), 12u);  // the pane (translucent) and the cubes are not among them
+    std::size_t visited_plain = 0, visited_bvh = 0, visited_first = 0;
+    for (const ShooterFrame& frame : {ShooterFrame::at({2.0, 2.0, 0.0}, {0, 0, 1}),
+                                      ShooterFrame::at({0.0, 1.5, 1.5}, {1, 0, 0}),
+                                      ShooterFrame::at({2.5, 0.5, 3.0}, {0, 0, -1})}) {
+        ShootOptions o{.occlusion = false, .sparse = true};
+        const ShootResult plain = shoot(frame, p, Hemicube(32), o);
+        o.bvh = &bvh;
+        const ShootResult culled = shoot(frame, p, Hemicube(32), o);
+        o.occluders_first = walls;
+        const ShootResult first = shoot(frame, p, Hemicube(32), o);
+        ASSERT_EQ(plain.hits.size(), culled.hits.size());
+        ASSERT_EQ(plain.hits.size(), first.hits.size());
+        for (std::size_t k = 0; k < plain.hits.size(); ++k) {
+            EXPECT_EQ(plain.hits[k].patch, culled.hits[k].patch);
+            EXPECT_EQ(plain.hits[k].ff, culled.hits[k].ff);
+            EXPECT_EQ(plain.hits[k].patch, first.hits[k].patch);
+            EXPECT_EQ(plain.hits[k].ff, first.hits[k].ff);
+        }
+        visited_plain += plain.visited;
+        visited_bvh += culled.visited;
+        visited_first += first.visited;
+    }
+    std::printf("patches visited over three shots: plain %zu, BVH %zu, walls first %zu\n",
+                visited_plain, visited_bvh, visited_first);
+    EXPECT_LT(visited_bvh, visited_plain);
+    EXPECT_LT(visited_first, visited_bvh);
+}
+
 TEST(Cull, ReachDropsOnlyWhatLiesBeyondItWithinTheStatedBound) {
     // Two rooms' worth of floor and lights 30 m apart in the open: with a reach of 10 m each
     // floor gets only its own light; the difference from the full bake is the far light's

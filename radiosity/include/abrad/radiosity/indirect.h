@@ -173,7 +173,9 @@ class IndirectField {
     std::vector<Patch> m_patches;
     std::vector<glm::dvec3> m_centroid, m_normal;
     std::vector<visdb::Rgb> m_reflected;
-    std::optional<Bvh> m_bvh;  // over m_patches: probes cost what they see
+    std::optional<Bvh> m_bvh;                     // over m_patches: probes cost what they see
+    static constexpr double kOccluderArea = 0.1;  // m²: patches rasterized first (shoot.h)
+    std::vector<std::uint32_t> m_occluders;
     Hemicube m_hemicube;
 };
 

@@ -57,6 +57,10 @@ struct ShootOptions {
     /// When set (with `sparse`, without occlusion lists), `hits` are by target: each
     /// fragment's form factor goes to the target holding the point its pixel sees. Not owned.
     const Targets* targets = nullptr;
+    /// With `bvh`: patches rasterized before the walk, ascending (large_occluders: walls and
+    /// slabs), so that the pixels they close hide what lies behind them from the start, not
+    /// only once the walk reaches them. Form factors are unchanged. Not owned.
+    std::span<const std::uint32_t> occluders_first{};
 };
 
 /// A patch and its form factor from the shooting point.
@@ -104,6 +108,10 @@ inline ShooterFrame frame_of(const Patch& p) {
 /// both sides. Throws std::invalid_argument for an unsupported `subpixels`.
 ShootResult shoot(const ShooterFrame& frame, std::span<const Patch> patches,
                   const Hemicube& hemicube, const ShootOptions& options);
+
+/// The opaque patches of at least `min_area` (squared units of the coordinates), ascending:
+/// the occluders a culling hemicube rasterizes first (ShootOptions::occluders_first).
+std::vector<std::uint32_t> large_occluders(std::span<const Patch> patches, double min_area);
 
 std::string to_string(Visibility method);
 
