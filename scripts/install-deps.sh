@@ -7,6 +7,9 @@ packages=(cmake g++ make ccache pkg-config libsqlite3-dev libglm-dev libgtest-de
           libopenimageio-dev openimageio-tools libtinygltf-dev nlohmann-json3-dev fonts-dejavu-core
           povray povray-includes
           clang-format clang-tidy)  # the style tests (Debian 12: version 14)
+# Node.js and npm for the export tests' readers (tests/export/package.json: the Khronos glTF
+# validator, three.js), from Debian unless a node and npm are already on the PATH (NodeSource)
+command -v node >/dev/null && command -v npm >/dev/null || packages+=(nodejs npm)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

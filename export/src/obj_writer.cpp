@@ -43,7 +43,7 @@ std::map<std::uint32_t, std::string> material_names(const visdb::Scene& scene,
 }  // namespace
 
 void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
-               const visdb::BakeMesh& mesh, const ToneMap& tone) {
+               const visdb::BakeMesh& mesh, const ToneMap& tone, const ObjOptions& options) {
     // Validate the mesh and its references into the scene before touching the disk
     detail::validate_bake_mesh(path, mesh);
     std::set<std::uint32_t> used_materials;
@@ -80,6 +80,8 @@ void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
     std::string buf;
     buf += "# abrad baked mesh: " + std::to_string(mesh.positions.size()) + " vertices, " +
            std::to_string(mesh.triangles.size()) + " triangles\n";
+    buf += options.up == UpAxis::Y ? "# Y up: abrad's (x, y, z) written as (x, z, -y)\n"
+                                   : "# Z up (abrad's frame)\n";
     buf +=
         "# v x y z r g b: position in metres, display colour (tone-mapped radiosity, sRGB, "
         "exposure ";
@@ -88,7 +90,7 @@ void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
     buf += "mtllib " + mtl_file + "\n";
     for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
         buf += 'v';
-        append_triple(buf, mesh.positions[i]);
+        append_triple(buf, detail::to_up(mesh.positions[i], options.up));
         for (const auto c : display_colour(mesh.radiosity[i], tone)) {
             buf += ' ';
             detail::append_fixed(buf, static_cast<double>(c) / 255.0, 4);
@@ -98,7 +100,7 @@ void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
     }
     for (const auto& n : mesh.normals) {
         buf += "vn";
-        append_triple(buf, n);
+        append_triple(buf, glm::vec3(detail::to_up(glm::dvec3(n), options.up)));
         buf += '\n';
         obj.write_if_full(buf);
     }
@@ -128,18 +130,24 @@ void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
     }
     obj.write(buf);
 
-    // Write the MTL: one `newmtl` per used material with Kd = ρ, Ke = E, d = α
-    buf = "# abrad materials for " + path.filename().string() + "\n";
+    // Write the MTL: one `newmtl` per used material that shows the bake (white, unlit, so the
+    // vertex colours show as they are), the material's own ρ, E and α in a comment
+    buf = "# abrad materials for " + path.filename().string() +
+          ": the bake is in the vertex colours (v x y z r g b); each material is white and\n"
+          "# unlit (illum 0) so that viewers show them unchanged. The scene's own reflectance,\n"
+          "# emittance and opacity are in each material's '# abrad material:' line.\n";
     for (const auto& [m, name] : mtl_names) {
         const auto& material = scene.materials[m];
         buf += "\nnewmtl " + name + "\n";
-        buf += "Kd";
+        buf += "# abrad material: Kd";
         append_triple(buf, material.reflectance);
-        buf += "\nKe";
+        buf += " Ke";
         append_triple(buf, material.emittance);
-        buf += "\nd ";
+        buf += " d ";
         detail::append_exact(buf, material.opacity);
-        buf += '\n';
+        buf += "\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nd ";
+        detail::append_exact(buf, material.opacity);
+        buf += "\nillum 0\n";
     }
     mtl.write(buf);
 

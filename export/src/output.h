@@ -87,6 +87,12 @@ inline std::string sanitise_name(std::string_view name) {
     return out;
 }
 
+/// `v` in the frame of a file with `up` up (UpAxis::Y: (x, y, z) -> (x, z, -y), a rotation;
+/// 0 - y rather than -y so that a zero stays +0 and is not written as "-0").
+inline glm::dvec3 to_up(const glm::dvec3& v, UpAxis up) {
+    return up == UpAxis::Y ? glm::dvec3{v.x, v.z, 0.0 - v.y} : v;
+}
+
 /// The writers' output file (abrad/atomic_file.h): a temporary beside `PATH`, renamed to
 /// `PATH` by commit() once every byte reached the disk; errors are ExportError
 /// "PATH: cannot write: <strerror>", and a failure leaves an existing file as it was.

@@ -27,8 +27,16 @@ void append_le(std::string& out, T value) {
     }
 }
 
+/// Where the vertices go: the file's frame, and the origin float positions are relative to.
+struct Frame {
+    UpAxis up = UpAxis::Z;
+    bool float_positions = false;
+    glm::dvec3 origin{0.0};  ///< in the file's frame; zero for double positions
+};
+
 /// The header of the contract for `n` vertices and `m` faces.
-std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options) {
+std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options,
+                       const Frame& frame) {
     std::string h = "ply\n";
     h += options.ascii ? "format ascii 1.0\n" : "format binary_little_endian 1.0\n";
     // One `comment` line per line of the comment, so a newline cannot break the header
@@ -41,11 +49,22 @@ std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options) 
         if (eol == std::string_view::npos) break;
         rest.remove_prefix(eol + 1);
     }
+    if (frame.float_positions) {
+        h += "comment origin";
+        for (int k = 0; k < 3; ++k) {
+            h += ' ';
+            detail::append_exact(h, frame.origin[k]);
+        }
+        h += '\n';
+    }
     h += "element vertex " + std::to_string(n) + "\n";
-    h += "property double x\n"
-         "property double y\n"
-         "property double z\n"
-         "property float nx\n"
+    h += frame.float_positions ? "property float x\n"
+                                 "property float y\n"
+                                 "property float z\n"
+                               : "property double x\n"
+                                 "property double y\n"
+                                 "property double z\n";
+    h += "property float nx\n"
          "property float ny\n"
          "property float nz\n"
          "property uchar red\n"
@@ -66,12 +85,18 @@ std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options) 
 
 /// Appends one vertex's record in the binary body.
 void append_vertex_binary(std::string& out, const visdb::BakeMesh& mesh, std::size_t i,
-                          const std::array<std::uint8_t, 3>& rgb) {
-    const auto& p = mesh.positions[i];
-    const auto& n = mesh.normals[i];
+                          const std::array<std::uint8_t, 3>& rgb, const Frame& frame) {
+    const glm::dvec3 p = detail::to_up(mesh.positions[i], frame.up) - frame.origin;
+    const glm::dvec3 n = detail::to_up(glm::dvec3(mesh.normals[i]), frame.up);
     const auto& h = mesh.irradiance[i];
     const auto& b = mesh.radiosity[i];
-    for (int k = 0; k < 3; ++k) append_le(out, static_cast<double>(p[k]));
+    for (int k = 0; k < 3; ++k) {
+        if (frame.float_positions) {
+            append_le(out, static_cast<float>(p[k]));
+        } else {
+            append_le(out, p[k]);
+        }
+    }
     for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(n[k]));
     for (const auto c : rgb) append_le(out, c);
     for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(h[k]));
@@ -80,9 +105,9 @@ void append_vertex_binary(std::string& out, const visdb::BakeMesh& mesh, std::si
 
 /// Appends one vertex's line in the ASCII body, with round-trip precision.
 void append_vertex_ascii(std::string& out, const visdb::BakeMesh& mesh, std::size_t i,
-                         const std::array<std::uint8_t, 3>& rgb) {
-    const auto& p = mesh.positions[i];
-    const auto& n = mesh.normals[i];
+                         const std::array<std::uint8_t, 3>& rgb, const Frame& frame) {
+    const glm::dvec3 p = detail::to_up(mesh.positions[i], frame.up) - frame.origin;
+    const glm::dvec3 n = detail::to_up(glm::dvec3(mesh.normals[i]), frame.up);
     const auto& h = mesh.irradiance[i];
     const auto& b = mesh.radiosity[i];
     bool first = true;
@@ -95,7 +120,13 @@ void append_vertex_ascii(std::string& out, const visdb::BakeMesh& mesh, std::siz
             detail::append_exact(out, value);
         }
     };
-    for (int k = 0; k < 3; ++k) put(static_cast<double>(p[k]));
+    for (int k = 0; k < 3; ++k) {
+        if (frame.float_positions) {
+            put(static_cast<float>(p[k]));
+        } else {
+            put(p[k]);
+        }
+    }
     for (int k = 0; k < 3; ++k) put(static_cast<float>(n[k]));
     for (const auto c : rgb) put(c);
     for (int k = 0; k < 3; ++k) put(static_cast<float>(h[k]));
@@ -110,16 +141,20 @@ void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, c
     // Validate before anything touches the disk
     detail::validate_bake_mesh(path, mesh);
 
+    Frame frame{.up = options.up, .float_positions = options.positions == PlyPositions::Float};
+    if (frame.float_positions)
+        frame.origin = detail::to_up(visdb::local_origin(mesh.positions), options.up);
+
     detail::AtomicFile file(path);
-    std::string buf = ply_header(mesh.positions.size(), mesh.triangles.size(), options);
+    std::string buf = ply_header(mesh.positions.size(), mesh.triangles.size(), options, frame);
 
     // Write the vertex element
     for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
         const auto rgb = display_colour(mesh.radiosity[i], tone);
         if (options.ascii) {
-            append_vertex_ascii(buf, mesh, i, rgb);
+            append_vertex_ascii(buf, mesh, i, rgb, frame);
         } else {
-            append_vertex_binary(buf, mesh, i, rgb);
+            append_vertex_binary(buf, mesh, i, rgb, frame);
         }
         file.write_if_full(buf);
     }

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -429,6 +430,45 @@ TEST(PlyWriter, AsciiRoundTripsEveryValue) {
     expect_round_trip(ply, mesh, tone);
 }
 
+// --positions float: x y z as float relative to the header's `comment origin` (whole metres
+// near the model at survey coordinates), which put back give the millimetres; --up y turns
+// positions and normals to (x, z, -y). Everything else as in the contract.
+TEST(PlyWriter, FloatPositionsRelativeToOriginAndYUp) {
+    TempDir dir;
+    const auto mesh = two_surface_mesh();
+    const ToneMap tone{.exposure = 1.0};
+    for (const bool ascii : {false, true}) {
+        SCOPED_TRACE(ascii ? "ascii" : "binary");
+        const fs::path path = dir / (ascii ? "a.ply" : "b.ply");
+        write_ply(
+            path, mesh, tone,
+            {.ascii = ascii, .comment = {}, .up = UpAxis::Y, .positions = PlyPositions::Float});
+        const Ply ply = read_ply(path);
+        // The origin: the box centre (1e6 + 0.501, 2e6 + 0.502, 6.2225) rounded, turned Y up
+        ASSERT_GE(ply.header_lines.size(), 3u);
+        EXPECT_EQ(ply.header_lines[2], "comment origin 1000001 6 -2000001");
+        std::vector<std::string> expected = contract_header(
+            ascii ? "ascii" : "binary_little_endian", {"origin 1000001 6 -2000001"}, 7, 3);
+        for (auto& line : expected)
+            if (line.rfind("property double ", 0) == 0) line.replace(9, 6, "float");
+        EXPECT_EQ(ply.header_lines, expected);
+        const auto& v = ply.element("vertex");
+        ASSERT_EQ(v.count, mesh.positions.size());
+        const glm::dvec3 origin(1000001.0, 6.0, -2000001.0);
+        for (std::size_t i = 0; i < v.count; ++i) {
+            const glm::dvec3 p(get<float>(v, i, "x"), get<float>(v, i, "y"), get<float>(v, i, "z"));
+            const glm::dvec3 back = p + origin;  // Y up: (x, z, -y)
+            EXPECT_NEAR(back.x, mesh.positions[i].x, 1e-6) << i;
+            EXPECT_NEAR(back.y, mesh.positions[i].z, 1e-6) << i;
+            EXPECT_NEAR(back.z, -mesh.positions[i].y, 1e-6) << i;
+            EXPECT_EQ(get<float>(v, i, "ny"), mesh.normals[i].z) << i;
+            EXPECT_EQ(get<float>(v, i, "nz"), -mesh.normals[i].y) << i;
+            EXPECT_EQ(get<float>(v, i, "radiosity_g"), mesh.radiosity[i].g) << i;
+        }
+        EXPECT_EQ(get<std::int32_t>(ply.element("face"), 2, "surface"), 0);
+    }
+}
+
 TEST(PlyWriter, DisplayColoursAreToneMappedSrgb) {
     TempDir dir;
     const auto mesh = two_surface_mesh();
@@ -540,20 +580,31 @@ double parse_double(const std::string& token) {
     return value;
 }
 
+// Positions exactly as in the bake (Z up), or turned Y up ((x, y, z) -> (x, z, -y), OBJ's
+// convention and the default), with the normals turned alike.
 TEST(ObjWriter, VerticesCarryPositionAndColour) {
     TempDir dir;
     const auto mesh = two_surface_mesh();
     const ToneMap tone{.exposure = 1.0};
-    write_obj(dir / "out.obj", two_surface_scene(), mesh, tone);
+    write_obj(dir / "y.obj", two_surface_scene(), mesh, tone);
+    write_obj(dir / "out.obj", two_surface_scene(), mesh, tone, {.up = UpAxis::Z});
+    const ObjFile y_up = read_obj(dir / "y.obj");
     const ObjFile obj = read_obj(dir / "out.obj");
 
     ASSERT_EQ(obj.v.size(), mesh.positions.size());
+    ASSERT_EQ(y_up.v.size(), mesh.positions.size());
     for (std::size_t i = 0; i < obj.v.size(); ++i) {
         SCOPED_TRACE("v " + std::to_string(i));
         ASSERT_EQ(obj.v[i].size(), 6u);
         for (int k = 0; k < 3; ++k) {
             EXPECT_EQ(parse_double(obj.v[i][static_cast<std::size_t>(k)]), mesh.positions[i][k]);
+            EXPECT_EQ(y_up.v[i][3 + static_cast<std::size_t>(k)],
+                      obj.v[i][3 + static_cast<std::size_t>(k)]);
         }
+        const auto& p = mesh.positions[i];
+        EXPECT_EQ(parse_double(y_up.v[i][0]), p.x);
+        EXPECT_EQ(parse_double(y_up.v[i][1]), p.z);
+        EXPECT_EQ(parse_double(y_up.v[i][2]), -p.y);
         for (int k = 0; k < 3; ++k) {
             const std::string& c = obj.v[i][3 + static_cast<std::size_t>(k)];
             EXPECT_EQ(c.size() - c.find('.'), 5u) << c;  // four decimals
@@ -565,6 +616,8 @@ TEST(ObjWriter, VerticesCarryPositionAndColour) {
     EXPECT_EQ(obj.v[0][3], "0.7373");  // 188 / 255
     ASSERT_EQ(obj.vn.size(), mesh.normals.size());
     EXPECT_EQ(obj.vn[6], (std::vector<std::string>{"0.6", "0", "0.8"}));
+    ASSERT_EQ(y_up.vn.size(), mesh.normals.size());
+    EXPECT_EQ(y_up.vn[6], (std::vector<std::string>{"0.6", "0.8", "0"}));
 }
 
 TEST(ObjWriter, FacesGroupedBySurfaceWithOneBasedIndices) {
@@ -605,6 +658,23 @@ TEST(ObjWriter, MtlHasUsedMaterials) {
     std::string current;
     for (std::string line; std::getline(in, line);) {
         auto tokens = split_ws(line);
+        // The scene's material in a comment: "# abrad material: Kd r g b Ke r g b d a"
+        if (tokens.size() == 13 && tokens[1] == "abrad" && tokens[2] == "material:") {
+            for (std::size_t i = 3; i < tokens.size(); ++i) {
+                if (std::isalpha(static_cast<unsigned char>(tokens[i][0])))
+                    tokens[i] = "scene " + tokens[i];
+            }
+            tokens.erase(tokens.begin(), tokens.begin() + 3);
+            ASSERT_FALSE(current.empty()) << line;
+            std::string key;
+            for (const auto& t : tokens) {
+                if (t.rfind("scene ", 0) == 0)
+                    key = t;
+                else
+                    mtl[current][key].push_back(parse_double(t));
+            }
+            continue;
+        }
         if (tokens.empty() || tokens[0][0] == '#') continue;
         if (tokens[0] == "newmtl") {
             current = tokens.at(1);
@@ -617,14 +687,25 @@ TEST(ObjWriter, MtlHasUsedMaterials) {
         for (std::size_t i = 1; i < tokens.size(); ++i) values.push_back(parse_double(tokens[i]));
     }
     ASSERT_EQ(mtl.size(), 2u);  // "unused" is not written
+    // The scene's materials, in the comment line
     const auto& lamp = mtl.at("lamp");
-    EXPECT_EQ(lamp.at("Kd"), (std::vector<double>{0.1, 0.2, 0.3}));
-    EXPECT_EQ(lamp.at("Ke"), (std::vector<double>{100.0, 90.5, 80.25}));
-    EXPECT_EQ(lamp.at("d"), (std::vector<double>{1.0}));
+    EXPECT_EQ(lamp.at("scene Kd"), (std::vector<double>{0.1, 0.2, 0.3}));
+    EXPECT_EQ(lamp.at("scene Ke"), (std::vector<double>{100.0, 90.5, 80.25}));
+    EXPECT_EQ(lamp.at("scene d"), (std::vector<double>{1.0}));
     const auto& paint = mtl.at("white_paint");
-    EXPECT_EQ(paint.at("Kd"), (std::vector<double>{0.8, 0.75, 0.7}));
-    EXPECT_EQ(paint.at("Ke"), (std::vector<double>{0.0, 0.0, 0.0}));
+    EXPECT_EQ(paint.at("scene Kd"), (std::vector<double>{0.8, 0.75, 0.7}));
+    EXPECT_EQ(paint.at("scene Ke"), (std::vector<double>{0.0, 0.0, 0.0}));
+    EXPECT_EQ(paint.at("scene d"), (std::vector<double>{0.9}));
+    // What a viewer shows: the vertex colours, white and unlit, with the opacity
+    for (const auto* m : {&lamp, &paint}) {
+        EXPECT_EQ(m->at("Kd"), (std::vector<double>{1.0, 1.0, 1.0}));
+        EXPECT_EQ(m->at("Ka"), (std::vector<double>{0.0, 0.0, 0.0}));
+        EXPECT_EQ(m->at("Ks"), (std::vector<double>{0.0, 0.0, 0.0}));
+        EXPECT_EQ(m->at("illum"), (std::vector<double>{0.0}));
+        EXPECT_EQ(m->count("Ke"), 0u);  // an emissive term would wash the bake out
+    }
     EXPECT_EQ(paint.at("d"), (std::vector<double>{0.9}));
+    EXPECT_EQ(lamp.at("d"), (std::vector<double>{1.0}));
 }
 
 TEST(ObjWriter, MissingDirectoryThrowsNamingPath) {

@@ -131,6 +131,10 @@ TEST_F(Formats, AnOptionTheFormatDoesNotUseIsRefused) {
          "it"},
         {"o.dat", "--format obj --light-samples 8",
          "--light-samples applies to --format pov-reference only; --format obj does not use it"},
+        {"o.gltf", "--up z",
+         "--up applies to --format ply and obj only; --format gltf does not use it"},
+        {"o.obj", "--positions float",
+         "--positions applies to --format ply only; --format obj does not use it"},
     };
     for (const auto& c : cases) {
         const Result r = export_to(c.file, c.options);
@@ -142,3 +146,32 @@ TEST_F(Formats, AnOptionTheFormatDoesNotUseIsRefused) {
 }
 
 }  // namespace
+
+// OBJ is written Y up by default (OBJ's convention), Z up with --up z; PLY --positions float
+// --up y writes float positions with an origin line.
+TEST_F(Formats, UpAxisAndPlyPositions) {
+    ASSERT_EQ(export_to("y.obj").status, 0);
+    ASSERT_EQ(export_to("z.obj", "--up z").status, 0);
+    const auto first_v = [](const fs::path& p) {
+        std::ifstream in(p);
+        for (std::string line; std::getline(in, line);)
+            if (line.rfind("v ", 0) == 0) return line;
+        return std::string();
+    };
+    std::istringstream y(first_v(path("y.obj"))), z(first_v(path("z.obj")));
+    std::string tag;
+    double yx = 0, yy = 0, yz = 0, zx = 0, zy = 0, zz = 0;
+    y >> tag >> yx >> yy >> yz;
+    z >> tag >> zx >> zy >> zz;
+    EXPECT_EQ(yx, zx);
+    EXPECT_EQ(yy, zz);  // Y up: (x, y, z) -> (x, z, -y)
+    EXPECT_EQ(yz, -zy);
+    const Result r = export_to("f.ply", "--positions float --up y --ascii");
+    ASSERT_EQ(r.status, 0) << r.output;
+    const std::string h = head(path("f.ply"), 400);
+    EXPECT_NE(h.find("comment origin 0 0 0\nelement vertex"), std::string::npos) << h;
+    EXPECT_NE(h.find("property float x\nproperty float y\nproperty float z\n"), std::string::npos)
+        << h;
+    const Result bad = export_to("g.ply", "--positions half");
+    EXPECT_EQ(bad.status, 2) << bad.output;
+}

@@ -154,6 +154,8 @@ struct ExportArgs {
     std::string output;
     std::string bake;  ///< empty: the latest
     bool ascii = false;
+    std::string up;                    ///< y|z; empty: the format's convention (obj y, ply z)
+    std::string positions = "double";  ///< ply: double|float
     ViewArgs view;
 };
 /// Exports a bake (or the model, pov-reference) in `a.format`, or the format the output's

@@ -48,16 +48,28 @@ void report(const ExportJob& job, const ToneMapped& t) {
               << " per " << t.bake.unit << ")\n";
 }
 
+// --up, else the format's convention.
+exporter::UpAxis up_axis(const ExportArgs& a, exporter::UpAxis convention) {
+    if (a.up.empty()) return convention;
+    return a.up == "y" ? exporter::UpAxis::Y : exporter::UpAxis::Z;
+}
+
 void write_ply(const ExportJob& job) {
     const ToneMapped t = bake_of(job);
-    exporter::write_ply(job.args.output, t.bake.mesh, t.tone,
-                        {.ascii = job.args.ascii, .comment = "abrad bake " + t.bake.name});
+    exporter::write_ply(
+        job.args.output, t.bake.mesh, t.tone,
+        {.ascii = job.args.ascii,
+         .comment = "abrad bake " + t.bake.name,
+         .up = up_axis(job.args, exporter::UpAxis::Z),
+         .positions = job.args.positions == "float" ? exporter::PlyPositions::Float
+                                                    : exporter::PlyPositions::Double});
     report(job, t);
 }
 
 void write_obj(const ExportJob& job) {
     const ToneMapped t = bake_of(job);
-    exporter::write_obj(job.args.output, job.scene, t.bake.mesh, t.tone);
+    exporter::write_obj(job.args.output, job.scene, t.bake.mesh, t.tone,
+                        {.up = up_axis(job.args, exporter::UpAxis::Y)});
     report(job, t);
 }
 
@@ -129,8 +141,8 @@ struct ExportFormat {
 // --db, --output, --bake, --format and --exposure apply to every format.
 const std::vector<ExportFormat>& export_formats() {
     static const std::vector<ExportFormat> kFormats = {
-        {"ply", {".ply"}, true, {"--ascii"}, write_ply},
-        {"obj", {".obj"}, true, {}, write_obj},
+        {"ply", {".ply"}, true, {"--ascii", "--up", "--positions"}, write_ply},
+        {"obj", {".obj"}, true, {"--up"}, write_obj},
         {"gltf", {".gltf", ".glb"}, true, {}, write_gltf},
         {"pov", {".pov"}, true, {"--camera", "--width", "--height"}, write_pov},
         {"pov-reference",
@@ -236,6 +248,15 @@ void add_export(CLI::App& app) {
     app.add_option("--output", s.output, "Output path")->required();
     app.add_option("--bake", s.bake, "Bake name (default: the latest)");
     app.add_flag("--ascii", s.ascii, "PLY as ASCII instead of binary little endian");
+    app.add_option("--up", s.up,
+                   "The written file's up axis: y writes abrad's (x, y, z) as (x, z, -y) (default: "
+                   "y for obj, OBJ's convention; z for ply; glTF is always Y up)")
+        ->check(CLI::IsMember({"y", "z"}));
+    app.add_option("--positions", s.positions,
+                   "ply: vertex positions as double (absolute), or float relative to the "
+                   "header's 'comment origin X Y Z' (for web loaders such as three.js)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"double", "float"}));
     add_view_options(app, s.view);
     app.add_option("--light-samples", s.view.light_samples,
                    "pov-reference: point lights sampling the emitters (cos-weighted spotlights)")

@@ -13,6 +13,7 @@
 #include "abrad/convert/import.h"
 #include "abrad/convert/scene_file.h"
 #include "cli_common.h"
+#include "scene_check.h"
 
 namespace fs = std::filesystem;
 
@@ -118,6 +119,7 @@ int run_import(const Invocation&) {
     const State& s = state();
     refuse_unwritable(s.db);  // before the models are read and healed
     const visdb::Scene scene = read_models(s.import);
+    print_scene_check(check_scene(scene), "import", std::cout, std::cerr);
     import_into(scene, s.db);
     return kExitOk;
 }

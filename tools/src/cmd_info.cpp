@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "cli_common.h"
+#include "scene_check.h"
 
 namespace abrad::tools::cli {
 namespace {
@@ -47,6 +48,7 @@ void print_info(const std::string& db) {
         std::cout << "\n";
     }
     const bool photometric = scene.emittance_unit == "lm/m2";
+    print_scene_check(check_scene(scene), "info", std::cout, std::cerr);
     std::cout << "lights: " << light_tris << " triangles, " << light_area << " m2, " << light_power
               << (photometric ? " lm" : " W") << " (mean over RGB)\n";
     std::cout << "cameras (" << scene.cameras.size() << ")";

@@ -39,14 +39,35 @@ double tone_value(double radiosity, const ToneMap& tone);
 /// max(v, 0)) (NaN counts as 0), the sRGB transfer function, rounded to 0..255.
 std::array<std::uint8_t, 3> display_colour(const glm::vec3& radiosity, const ToneMap& tone);
 
+/// The axis that points up in a written file. abrad's frame is Z up; `Y` writes abrad's
+/// (x, y, z) as (x, z, -y), a rotation (positions and normals alike), as glTF and OBJ
+/// viewers expect.
+enum class UpAxis { Z, Y };
+
+/// The type of PLY vertex positions.
+enum class PlyPositions {
+    Double,  ///< absolute, metres (the contract)
+    Float,   ///< relative to the origin in the header's `comment origin X Y Z` line (metres, in
+             ///< the file's frame): visdb::local_origin of the mesh, zero unless the model lies
+             ///< 1 km or more from the origin. What web loaders (three.js) read.
+};
+
 struct PlyOptions {
     bool ascii = false;   ///< binary_little_endian when false
     std::string comment;  ///< written as `comment` header lines (one per line) when not empty
+    UpAxis up = UpAxis::Z;
+    PlyPositions positions = PlyPositions::Double;
+};
+
+struct ObjOptions {
+    UpAxis up = UpAxis::Y;  ///< OBJ's convention (Blender, three.js and MeshLab import Y up)
 };
 
 /// Writes the PLY contract: vertex x y z (double), nx ny nz (float), red green blue (uchar),
 /// irradiance_r/g/b and radiosity_r/g/b (float); face vertex_indices (list uchar int) and
 /// surface (int). Binary is little endian on any host; ASCII numbers read back exactly.
+/// `options.positions` Float writes x y z as float relative to a `comment origin` line, and
+/// `options.up` Y turns the model Y up.
 /// Throws ExportError naming `path` when the mesh is inconsistent (array lengths, indices out
 /// of range) or the file cannot be written ("PATH: cannot write: ..."). Writes a temporary
 /// beside `path` and renames it (abrad/atomic_file.h), so a failure leaves no partial file.
@@ -54,13 +75,16 @@ void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, c
                const PlyOptions& options = {});
 
 /// Writes `v x y z r g b`, `vn`, faces grouped by surface with `usemtl`, and an MTL beside it
-/// (same stem, .mtl) with each used surface's material (Kd = ρ, Ke = E, d = α). Display
-/// colours are tone-mapped radiosity as 0..1 with 4 decimals; `o`/`usemtl` names have
+/// (same stem, .mtl) with a material per used scene material that shows the bake: white
+/// (`Kd 1 1 1`), no ambient or specular, unlit (`illum 0`), `d` = α, so a viewer that reads
+/// the vertex colours shows them as they are; the material's ρ, E and α are in a comment line
+/// (`# abrad material: Kd ρ Ke E d α`). Y up by default (`options.up`, OBJ's convention).
+/// Display colours are tone-mapped radiosity as 0..1 with 4 decimals; `o`/`usemtl` names have
 /// whitespace replaced by `_`. Throws ExportError naming `path` on an inconsistent mesh, a
 /// surface or material id out of range of `scene`, or an I/O failure; both files are written
 /// to temporaries first and renamed (abrad/atomic_file.h).
 void write_obj(const std::filesystem::path& path, const visdb::Scene& scene,
-               const visdb::BakeMesh& mesh, const ToneMap& tone);
+               const visdb::BakeMesh& mesh, const ToneMap& tone, const ObjOptions& options = {});
 
 /// What the POV-Ray exports look through and how bright they are.
 struct PovView {
@@ -113,15 +137,17 @@ void write_pov_reference(const std::filesystem::path& path, const visdb::Scene& 
                          const PovReferenceOptions& options);
 
 /// Writes the bake as glTF 2.0 (`.gltf` with the buffer embedded as a data URI, or binary
-/// `.glb`, by the extension): one mesh primitive per surface with POSITION (float, metres,
-/// relative to the root node's translation, visdb::local_origin of the mesh), NORMAL, COLOR_0 (the
-/// tone-mapped radiosity 1 - exp(-exposure B), linear float RGB as glTF requires) and the
-/// application attributes _IRRADIANCE and _RADIOSITY (float RGB, W/m² or lux); materials
-/// are `KHR_materials_unlit` with base colour white and single-sided (a bake shades fronts
-/// only), so viewers show the bake as is. Y up as
-/// glTF requires: abrad's (x, y, z) is written as (x, z, -y). Material and surface names that
-/// are not valid UTF-8 (JSON's encoding) are read as Windows-1252 (to_utf8 in text.h); returns
-/// how many were. Throws ExportError naming `path` on an inconsistent mesh or a write failure.
+/// `.glb`, by the extension): one mesh per surface, its one primitive with accessors of its own
+/// vertices only (the bake's vertices it uses, in their order; indices unsigned short below
+/// 65,535 vertices, else unsigned int), so a viewer uploads every vertex once: POSITION (float,
+/// metres, relative to the root node's translation, visdb::local_origin of the mesh), NORMAL,
+/// COLOR_0 (the tone-mapped radiosity 1 - exp(-exposure B), linear float RGB as glTF requires) and
+/// the application attributes _IRRADIANCE and _RADIOSITY (float RGB, W/m² or lux); materials are
+/// `KHR_materials_unlit` with base colour white and single-sided (a bake shades fronts only), so
+/// viewers show the bake as is. Y up as glTF requires: abrad's (x, y, z) is written as (x, z, -y).
+/// Material and surface names that are not valid UTF-8 (JSON's encoding) are read as Windows-1252
+/// (to_utf8 in text.h); returns how many were. Throws ExportError naming `path` on an inconsistent
+/// mesh or a write failure.
 std::size_t write_gltf(const std::filesystem::path& path, const visdb::Scene& scene,
                        const visdb::BakeMesh& mesh, const ToneMap& tone);
 
