@@ -23,6 +23,7 @@
 #include <tuple>
 #include <utility>
 
+#include "child_process.h"
 #include "raw_model.h"
 
 namespace abrad::convert {
@@ -709,6 +710,7 @@ SceneFile read_scene_file(const std::filesystem::path& path) {
 
     // Parse the TOML document
     toml::table root;
+    detail::check_toml_in_child(bytes, file);  // toml++ can crash: first in a child process
     try {
         root = toml::parse(std::string_view(bytes), std::string_view(file));
     } catch (const toml::parse_error& e) {
