@@ -78,6 +78,7 @@
 
 #include "abrad/convert/import.h"
 #include "abrad/convert/obj_import.h"
+#include "abrad/visdb/material_check.h"
 #include "child_process.h"
 #include "raw_model.h"
 
@@ -1206,6 +1207,14 @@ struct MaterialConverter {
             const visdb::Rgb e = glm::max(visdb::Rgb{c.r, c.g, c.b} * strength, visdb::Rgb{0.0});
             if (std::isfinite(e.x) && std::isfinite(e.y) && std::isfinite(e.z)) {
                 out.emittance = e;
+            }
+            if (e.x > visdb::kMaxEmittance || e.y > visdb::kMaxEmittance ||
+                e.z > visdb::kMaxEmittance) {
+                throw ImportError(file, 0,
+                                  "material " + quote_name(name) + ": emissive colour (" +
+                                      format_number(e.x) + ", " + format_number(e.y) + ", " +
+                                      format_number(e.z) +
+                                      ") over 1e10 W/m2, the most abrad bakes");
             }
             if (out.is_emitter()) {
                 emitter_notes.add(located(file, 0,

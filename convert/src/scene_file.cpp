@@ -23,6 +23,7 @@
 #include <tuple>
 #include <utility>
 
+#include "abrad/visdb/material_check.h"
 #include "child_process.h"
 #include "raw_model.h"
 
@@ -285,7 +286,10 @@ struct Emission {
 Emission read_emission(const TableReader& reader, const std::string& section) {
     Emission e;
     e.emittance = reader.rgb("emittance");
-    if (e.emittance) reader.check_range("emittance", *e.emittance, 0.0, HUGE_VAL, ">= 0");
+    if (e.emittance) {
+        reader.check_range("emittance", *e.emittance, 0.0, visdb::kMaxEmittance,
+                           "in [0, 1e10] (the sun's surface is 6.3e7)");
+    }
     e.flux = reader.number("flux");
     if (e.flux) reader.check_range("flux", *e.flux, 0.0, HUGE_VAL, ">= 0 (lumens)");
     if (e.emittance && e.flux) {
