@@ -209,7 +209,7 @@ class TableReader {
         for (int i = 0; i < 3; ++i) check_range(key, v[i], lo, hi, what);
     }
     void check_range(std::string_view key, double v, double lo, double hi, const char* what) const {
-        if (v < lo || v > hi) {
+        if (!(v >= lo && v <= hi)) {  // NaN fails too
             fail(line(key), name(key) + " must be " + what + ", got " + fmt(v));
         }
     }
