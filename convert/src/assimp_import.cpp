@@ -76,7 +76,10 @@
 #include <unordered_map>
 #include <utility>
 
+#include "abrad/convert/import.h"
 #include "abrad/convert/obj_import.h"
+#include "abrad/visdb/material_check.h"
+#include "child_process.h"
 #include "raw_model.h"
 
 namespace abrad::convert::detail {
@@ -194,6 +197,79 @@ std::string clean_message(std::string message, const std::string& path) {
     std::string_view t = trim(message);
     while (!t.empty() && (t.back() == '.' || t.back() == ' ')) t.remove_suffix(1);
     return std::string(t);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Collada
+
+/// Checks a Collada file's index lists (<p>, <v>, <vcount>, <h>) hold whole numbers only and
+/// every count="N" attribute is at most the file's size: Assimp 5.2 read fractional indices
+/// ("0.5 1.5 2.5") into a 24 GB allocation. Throws ImportError at the line.
+void check_collada(std::string_view bytes, const std::string& file) {
+    const auto line_at = [&](std::size_t at) {
+        return static_cast<std::size_t>(std::count(bytes.begin(), bytes.begin() + at, '\n')) + 1;
+    };
+    for (const std::string_view tag : {"<p>", "<v>", "<vcount>", "<h>"}) {
+        for (std::size_t at = bytes.find(tag); at != std::string_view::npos;
+             at = bytes.find(tag, at + 1)) {
+            const std::size_t begin = at + tag.size();
+            const std::size_t end = std::min(bytes.find('<', begin), bytes.size());
+            const std::size_t bad =
+                bytes.substr(begin, end - begin).find_first_not_of("0123456789 \t\r\n");
+            if (bad != std::string_view::npos) {
+                throw ImportError(file, line_at(begin + bad),
+                                  "Collada " + std::string(tag) + " holds " +
+                                      quote(bytes.substr(begin + bad, std::min<std::size_t>(
+                                                                          12, end - begin - bad))) +
+                                      ": indices and counts are whole numbers");
+            }
+        }
+    }
+    constexpr std::string_view kCount = " count=\"";
+    for (std::size_t at = bytes.find(kCount); at != std::string_view::npos;
+         at = bytes.find(kCount, at + 1)) {
+        const std::string_view digits = bytes.substr(at + kCount.size(), 20);
+        std::optional<long> n = parse_long(digits.substr(0, digits.find('"')));
+        if (!n && !digits.empty() && std::isdigit(static_cast<unsigned char>(digits[0])) != 0)
+            n = std::numeric_limits<long>::max();  // more digits than a long holds
+        if (n && (*n < 0 || static_cast<std::uint64_t>(*n) > bytes.size())) {
+            throw ImportError(file, line_at(at),
+                              "Collada count=\"" + std::to_string(*n) +
+                                  "\" is more than the file could hold (" +
+                                  std::to_string(bytes.size()) + " bytes)");
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// GLB
+
+/// Checks a binary glTF's header and chunk lengths against the file's size (Assimp allocates
+/// what a chunk claims before reading it: a 2 GiB claim took 2 GB); throws ImportError naming
+/// the byte where the bad length is.
+void check_glb(std::string_view bytes, const std::string& file) {
+    const auto u32 = [&](std::size_t at) {
+        std::uint32_t v = 0;
+        for (std::size_t i = 4; i-- > 0;) v = (v << 8) | static_cast<unsigned char>(bytes[at + i]);
+        return v;
+    };
+    const auto fail = [&](std::size_t at, const std::string& message) {
+        throw ImportError(file, 0, "GLB byte " + std::to_string(at) + ": " + message);
+    };
+    if (bytes.size() < 12) fail(0, "header cut short (a GLB header is 12 bytes)");
+    if (u32(8) != bytes.size()) {
+        fail(8, "the header gives the file's length as " + std::to_string(u32(8)) +
+                    " bytes, but it has " + std::to_string(bytes.size()));
+    }
+    for (std::size_t at = 12, chunk = 0; at < bytes.size(); ++chunk) {
+        if (bytes.size() - at < 8) fail(at, "chunk " + std::to_string(chunk) + " header cut short");
+        const std::uint64_t length = u32(at);
+        if (length > bytes.size() - at - 8) {
+            fail(at, "chunk " + std::to_string(chunk) + " claims " + std::to_string(length) +
+                         " bytes, but only " + std::to_string(bytes.size() - at - 8) + " follow");
+        }
+        at += 8 + length;
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1132,6 +1208,14 @@ struct MaterialConverter {
             if (std::isfinite(e.x) && std::isfinite(e.y) && std::isfinite(e.z)) {
                 out.emittance = e;
             }
+            if (e.x > visdb::kMaxEmittance || e.y > visdb::kMaxEmittance ||
+                e.z > visdb::kMaxEmittance) {
+                throw ImportError(file, 0,
+                                  "material " + quote_name(name) + ": emissive colour (" +
+                                      format_number(e.x) + ", " + format_number(e.y) + ", " +
+                                      format_number(e.z) +
+                                      ") over 1e10 W/m2, the most abrad bakes");
+            }
             if (out.is_emitter()) {
                 emitter_notes.add(located(file, 0,
                                           "material " + quote_name(name) + ": emissive colour (" +
@@ -1165,21 +1249,25 @@ struct MaterialConverter {
 
 // ---------------------------------------------------------------------------------------------
 
-RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& options,
-                     std::vector<std::string>& notes) {
-    if (!options.unit.empty()) (void)metres_per_unit(options.unit);  // throws invalid_argument
-    if (options.up != 0 && options.up != 'y' && options.up != 'z') {
-        throw std::invalid_argument(std::string("up axis must be 'y' or 'z', got '") + options.up +
-                                    "'");
-    }
-    const std::string file = path.string();
-    const std::string bytes = read_file_bytes(path, file, "file");
-    if (bytes.empty()) throw ImportError(file, 0, "empty file");
-    std::string ext = lower(path.extension().string());
-    if (!ext.empty() && ext.front() == '.') ext.erase(0, 1);
+namespace {
 
+/// What abrad does to a file before Assimp sees it.
+struct BeforeAssimp {
+    std::optional<std::vector<DxfPair>> dxf;  ///< a DXF's group pairs (ASCII DXF only)
+    std::optional<std::string> dxf_expanded;  ///< the DXF with its INSERTs expanded
+};
+
+/// The checks and rewrites before Assimp: PLY walked, GLB chunk lengths, IFC end marker, DXF
+/// pairs, POLYLINE counts and INSERT expansion. Throws ImportError on what they refuse.
+BeforeAssimp check_and_expand(std::string_view bytes, const std::string& ext,
+                              const std::string& file, std::vector<std::string>& notes) {
     // PLY: Assimp's reader hangs or crashes on damaged files, so they are checked first
     if (bytes.starts_with("ply") || bytes.starts_with("PLY")) check_ply(bytes, file);
+    // GLB: Assimp allocates what a chunk claims before reading it
+    if (bytes.starts_with("glTF")) check_glb(bytes, file);
+    // Collada: Assimp reads fractional indices into a huge allocation
+    if (ext == "dae" || bytes.substr(0, 1024).find("<COLLADA") != std::string_view::npos)
+        check_collada(bytes, file);
     // IFC (STEP): Assimp reads a truncated file without a word, minus what was cut off
     if (bytes.starts_with("ISO-10303-21") &&
         !trim(std::string_view(bytes).substr(bytes.size() -
@@ -1188,12 +1276,9 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
         throw ImportError(file, 0, "no END-ISO-10303-21; at the end (truncated file?)");
     }
 
-    RawModel raw;
-    raw.file = file;
-
     // DXF: expand INSERTs ourselves (see the top of this file), read $INSUNITS
-    std::optional<std::vector<DxfPair>> dxf;
-    std::optional<std::string> dxf_expanded;
+    BeforeAssimp before;
+    std::optional<std::vector<DxfPair>>& dxf = before.dxf;
     if (ext == "dxf") {
         dxf = dxf_pairs(bytes, file);
         if (dxf) {
@@ -1203,9 +1288,38 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                                         "and the model incomplete"));
             }
             check_dxf_polyline_counts(*dxf, file);
-            dxf_expanded = expand_dxf_inserts(*dxf, file, notes);
+            before.dxf_expanded = expand_dxf_inserts(*dxf, file, notes);
         }
     }
+    return before;
+}
+
+/// "FILE: mesh 'Wall' face 12" for the Assimp reader's places: (instance + 1) << 32 | face,
+/// where `labels[instance]` names the mesh instance.
+std::function<std::string(std::size_t)> assimp_places(
+    const std::string& file, std::shared_ptr<const std::vector<std::string>> labels) {
+    return [file, labels = std::move(labels)](std::size_t place) {
+        const std::size_t instance = place >> 32;
+        if (instance == 0 || instance > labels->size()) return std::string(file);  // a copy
+        const std::size_t face = place & 0xffffffffULL;
+        return located(file, 0, (*labels)[instance - 1] + " face " + std::to_string(face));
+    };
+}
+
+/// read_assimp in this process; `labels` gets the mesh instances' labels (assimp_places).
+RawModel read_assimp_here(const std::filesystem::path& path, const ImportOptions& options,
+                          std::vector<std::string>& notes, std::vector<std::string>& labels) {
+    const std::string file = path.string();
+    const std::string bytes = read_file_bytes(path, file, "file");
+    if (bytes.empty()) throw ImportError(file, 0, "empty file");
+    std::string ext = lower(path.extension().string());
+    if (!ext.empty() && ext.front() == '.') ext.erase(0, 1);
+
+    RawModel raw;
+    raw.file = file;
+    const BeforeAssimp before = check_and_expand(bytes, ext, file, notes);
+    const std::optional<std::vector<DxfPair>>& dxf = before.dxf;
+    const std::optional<std::string>& dxf_expanded = before.dxf_expanded;
 
     // Read the scene, with Assimp's log collected instead of printed
     Assimp::Importer importer;
@@ -1336,10 +1450,7 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
         std::string object;  ///< nearest named node (IFC: product name); empty if none
         std::string layer;   ///< IFC entity type
     };
-    struct Instance {
-        std::string label;  ///< "mesh 'NAME'" or "mesh #3 in 'OBJECT'"
-    };
-    auto instances = std::make_shared<std::vector<Instance>>();
+    std::vector<std::string>& instances = labels;  // "mesh 'NAME'" or "mesh #3 in 'OBJECT'"
     std::map<std::tuple<std::string, std::string, std::string>, std::uint32_t> slot_index;
     std::unordered_map<std::string, std::size_t> material_index;  // name -> raw.materials
     std::vector<std::optional<std::string>> material_name(scene->mNumMaterials);
@@ -1438,11 +1549,11 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                 object = mesh_name.empty() ? stem : mesh_name;
             }
             const std::string& material = material_of(mesh.mMaterialIndex);
-            const std::size_t instance = instances->size();
+            const std::size_t instance = instances.size();
             std::string label = mesh_name.empty() ? "mesh #" + std::to_string(mesh_index)
                                                   : "mesh " + quote_name(mesh_name);
             if (mesh_name.empty() && !object.empty()) label += " in " + quote_name(object);
-            instances->push_back({std::move(label)});
+            instances.push_back(std::move(label));
             const auto [sit, added] =
                 slot_index.try_emplace(std::make_tuple(object, layer, material),
                                        static_cast<std::uint32_t>(raw.slots.size()));
@@ -1458,15 +1569,15 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
                 }
                 if (face.mNumIndices > kMaxPolygonCorners) {
                     throw ImportError(file, 0,
-                                      instances->back().label + " face " + std::to_string(f) +
-                                          ": " + too_many_corners(face.mNumIndices));
+                                      instances.back() + " face " + std::to_string(f) + ": " +
+                                          too_many_corners(face.mNumIndices));
                 }
                 const std::size_t first = raw.corners.size();
                 for (unsigned i = 0; i < face.mNumIndices; ++i) {
                     const unsigned v = face.mIndices[mirrored ? face.mNumIndices - 1 - i : i];
                     if (v >= mesh.mNumVertices) {  // ValidateDataStructure rejects these
                         throw ImportError(file, 0,
-                                          instances->back().label + " face " + std::to_string(f) +
+                                          instances.back() + " face " + std::to_string(f) +
                                               ": vertex index out of range");
                     }
                     std::uint32_t& id = local[v];
@@ -1597,13 +1708,178 @@ RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& opt
     raw.source.size_bytes = bytes.size();
     raw.source.unit = unit.label;
     raw.source.up_axis = std::string(1, up);
-    raw.where = [file, instances](std::size_t place) {
-        const std::size_t instance = place >> 32;
-        if (instance == 0 || instance > instances->size()) return std::string(file);  // a copy
-        const std::size_t face = place & 0xffffffffULL;
-        return located(file, 0, (*instances)[instance - 1].label + " face " + std::to_string(face));
-    };
+    raw.where = assimp_places(file, std::make_shared<std::vector<std::string>>(labels));
     return raw;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The reader's child process: what it sends back
+
+void put_vec3(ByteWriter& out, const glm::dvec3& v) {
+    out.put(v.x);
+    out.put(v.y);
+    out.put(v.z);
+}
+
+glm::dvec3 get_vec3(ByteReader& in) {
+    const double x = in.get<double>();
+    const double y = in.get<double>();
+    return {x, y, in.get<double>()};
+}
+
+void put_strings(ByteWriter& out, const std::vector<std::string>& strings) {
+    out.put<std::uint64_t>(strings.size());
+    for (const std::string& s : strings) out.put_string(s);
+}
+
+std::vector<std::string> get_strings(ByteReader& in) {
+    std::vector<std::string> strings(in.get_count(sizeof(std::uint64_t)));
+    for (std::string& s : strings) s = in.get_string();
+    return strings;
+}
+
+/// A RawModel (all but `where`), the mesh instances' labels and the notes, as bytes.
+std::string encode(const RawModel& raw, const std::vector<std::string>& labels,
+                   const std::vector<std::string>& notes) {
+    ByteWriter out;
+    out.put<std::uint64_t>(raw.positions.size());
+    for (const glm::dvec3& p : raw.positions) put_vec3(out, p);
+    out.put<std::uint64_t>(raw.corners.size());
+    out.bytes().append(reinterpret_cast<const char*>(raw.corners.data()),
+                       raw.corners.size() * sizeof(std::uint32_t));
+    out.put<std::uint64_t>(raw.faces.size());
+    for (const RawFace& f : raw.faces) out.put(f);
+    out.put<std::uint64_t>(raw.slots.size());
+    for (const RawSlot& s : raw.slots) {
+        put_strings(out, {s.name, s.layer, s.material});
+        out.put<std::uint64_t>(s.place);
+    }
+    out.put<std::uint64_t>(raw.materials.size());
+    for (const visdb::Material& m : raw.materials) {
+        out.put_string(m.name);
+        put_vec3(out, m.reflectance);
+        put_vec3(out, m.emittance);
+        out.put(m.opacity);
+    }
+    out.put<std::uint64_t>(raw.cameras.size());
+    for (const visdb::Camera& c : raw.cameras) {
+        out.put_string(c.name);
+        put_vec3(out, c.position);
+        put_vec3(out, c.look_at);
+        put_vec3(out, c.up);
+        out.put(c.fov_y_deg);
+    }
+    const visdb::Source& src = raw.source;
+    put_strings(out, {src.path, src.format, src.checksum, src.unit, src.up_axis});
+    out.put(src.size_bytes);
+    put_strings(out, labels);
+    put_strings(out, notes);
+    return std::move(out.bytes());
+}
+
+/// encode's bytes back; `where` names places in `file`; the notes are appended to `notes`.
+RawModel decode(std::string_view bytes, const std::string& file, std::vector<std::string>& notes) {
+    ByteReader in(bytes);
+    RawModel raw;
+    raw.file = file;
+    raw.positions.resize(in.get_count(3 * sizeof(double)));
+    for (glm::dvec3& p : raw.positions) p = get_vec3(in);
+    raw.corners.resize(in.get_count(sizeof(std::uint32_t)));
+    for (std::uint32_t& c : raw.corners) c = in.get<std::uint32_t>();
+    raw.faces.resize(in.get_count(sizeof(RawFace)));
+    for (RawFace& f : raw.faces) f = in.get<RawFace>();
+    raw.slots.resize(in.get_count(4 * sizeof(std::uint64_t)));
+    for (RawSlot& s : raw.slots) {
+        std::vector<std::string> names = get_strings(in);
+        if (names.size() != 3) throw ChildFailed("its result was damaged");
+        s = {std::move(names[0]), std::move(names[1]), std::move(names[2]),
+             in.get<std::uint64_t>()};
+    }
+    raw.materials.resize(in.get_count(7 * sizeof(double)));
+    for (visdb::Material& m : raw.materials) {
+        m.name = in.get_string();
+        m.reflectance = get_vec3(in);
+        m.emittance = get_vec3(in);
+        m.opacity = in.get<double>();
+    }
+    raw.cameras.resize(in.get_count(10 * sizeof(double)));
+    for (visdb::Camera& c : raw.cameras) {
+        c.name = in.get_string();
+        c.position = get_vec3(in);
+        c.look_at = get_vec3(in);
+        c.up = get_vec3(in);
+        c.fov_y_deg = in.get<double>();
+    }
+    std::vector<std::string> src = get_strings(in);
+    if (src.size() != 5) throw ChildFailed("its result was damaged");
+    raw.source.path = src[0];
+    raw.source.format = src[1];
+    raw.source.checksum = src[2];
+    raw.source.unit = src[3];
+    raw.source.up_axis = src[4];
+    raw.source.size_bytes = in.get<std::uint64_t>();
+    raw.where = assimp_places(file, std::make_shared<std::vector<std::string>>(get_strings(in)));
+    for (std::string& note : get_strings(in)) notes.push_back(std::move(note));
+    if (!in.at_end()) throw ChildFailed("its result was damaged");
+    return raw;
+}
+
+/// The format's name for messages ("glTF"), from the model format table, else the extension.
+std::string format_name(const std::filesystem::path& path) {
+    std::string ext = lower(path.extension().string());
+    if (!ext.empty() && ext.front() == '.') ext.erase(0, 1);
+    for (const ModelFormat& f : model_formats()) {
+        if (std::find(f.extensions.begin(), f.extensions.end(), ext) != f.extensions.end())
+            return f.name;
+    }
+    return ext.empty() ? std::string("model") : ext;
+}
+
+}  // namespace
+
+void check_before_assimp(std::string_view bytes, const std::string& ext, const std::string& file,
+                         std::vector<std::string>& notes) {
+    (void)check_and_expand(bytes, ext, file, notes);
+}
+
+RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& options,
+                     std::vector<std::string>& notes) {
+    if (!options.unit.empty()) (void)metres_per_unit(options.unit);  // throws invalid_argument
+    if (options.up != 0 && options.up != 'y' && options.up != 'z') {
+        throw std::invalid_argument(std::string("up axis must be 'y' or 'z', got '") + options.up +
+                                    "'");
+    }
+    const std::string file = path.string();
+    // The child's result: 'R' and the model, or 'I' and the ImportError it threw
+    const auto work = [&] {
+        ByteWriter out;
+        try {
+            std::vector<std::string> child_notes;
+            std::vector<std::string> labels;
+            const RawModel raw = read_assimp_here(path, options, child_notes, labels);
+            out.put('R');
+            out.bytes() += encode(raw, labels, child_notes);
+        } catch (const ImportError& e) {
+            const std::string prefix = located(e.file(), e.line(), "");
+            std::string_view message(e.what());
+            if (message.starts_with(prefix)) message.remove_prefix(prefix.size());
+            out.put('I');
+            put_strings(out, {e.file(), std::string(message)});
+            out.put<std::uint64_t>(e.line());
+        }
+        return std::move(out.bytes());
+    };
+    try {
+        const std::string bytes = run_in_child(work);
+        ByteReader in(bytes);
+        if (in.get<char>() == 'R') return decode(bytes.substr(1), file, notes);
+        const std::vector<std::string> error = get_strings(in);
+        if (error.size() != 2) throw ChildFailed("its result was damaged");
+        throw ImportError(error[0], in.get<std::uint64_t>(), error[1]);
+    } catch (const ChildFailed& e) {
+        throw ImportError(file, 0,
+                          "the " + format_name(path) + " reader failed (" + e.what() + ")");
+    }
 }
 
 }  // namespace abrad::convert::detail

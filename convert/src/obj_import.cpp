@@ -35,6 +35,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "abrad/visdb/material_check.h"
 #include "raw_model.h"
 
 namespace abrad::convert {
@@ -431,6 +432,12 @@ class MaterialLibrary {
             const visdb::Rgb e = colour(tokens, file, line);
             if (e.x < 0.0 || e.y < 0.0 || e.z < 0.0) {
                 throw ImportError(file, line, "Ke (emittance) must not be negative");
+            }
+            if (e.x > visdb::kMaxEmittance || e.y > visdb::kMaxEmittance ||
+                e.z > visdb::kMaxEmittance) {
+                throw ImportError(file, line,
+                                  "Ke (emittance) over 1e10 W/m2, the most abrad bakes (the "
+                                  "sun's surface is 6.3e7)");
             }
             m.emittance = e;
         } else if (key == "d") {

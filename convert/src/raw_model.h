@@ -68,9 +68,17 @@ inline std::string too_many_corners(std::size_t corners) {
 RawModel read_obj(const std::filesystem::path& path, const ImportOptions& options,
                   std::vector<std::string>& notes);
 
-/// Reads any format Assimp knows (assimp_import.cpp). Notes go to `notes`.
+/// Reads any format Assimp knows (assimp_import.cpp). Assimp runs in a child process with
+/// kReaderLimits (child_process.h): its crash, hang or runaway allocation is an ImportError
+/// "the FORMAT reader failed (REASON)". Notes go to `notes`.
 RawModel read_assimp(const std::filesystem::path& path, const ImportOptions& options,
                      std::vector<std::string>& notes);
+
+/// What read_assimp checks and rewrites before Assimp sees a file, in this process (the fuzz
+/// targets' entry): PLY structure, GLB chunk lengths, the IFC end marker, DXF group pairs,
+/// POLYLINE counts and INSERT expansion (`ext`: lower case, no dot). Throws ImportError.
+void check_before_assimp(std::string_view bytes, const std::string& ext, const std::string& file,
+                         std::vector<std::string>& notes);
 
 /// Healing settings.
 struct HealOptions {

@@ -23,6 +23,8 @@
 #include <tuple>
 #include <utility>
 
+#include "abrad/visdb/material_check.h"
+#include "child_process.h"
 #include "raw_model.h"
 
 namespace abrad::convert {
@@ -207,7 +209,7 @@ class TableReader {
         for (int i = 0; i < 3; ++i) check_range(key, v[i], lo, hi, what);
     }
     void check_range(std::string_view key, double v, double lo, double hi, const char* what) const {
-        if (v < lo || v > hi) {
+        if (!(v >= lo && v <= hi)) {  // NaN fails too
             fail(line(key), name(key) + " must be " + what + ", got " + fmt(v));
         }
     }
@@ -284,7 +286,10 @@ struct Emission {
 Emission read_emission(const TableReader& reader, const std::string& section) {
     Emission e;
     e.emittance = reader.rgb("emittance");
-    if (e.emittance) reader.check_range("emittance", *e.emittance, 0.0, HUGE_VAL, ">= 0");
+    if (e.emittance) {
+        reader.check_range("emittance", *e.emittance, 0.0, visdb::kMaxEmittance,
+                           "in [0, 1e10] (the sun's surface is 6.3e7)");
+    }
     e.flux = reader.number("flux");
     if (e.flux) reader.check_range("flux", *e.flux, 0.0, HUGE_VAL, ">= 0 (lumens)");
     if (e.emittance && e.flux) {
@@ -709,6 +714,7 @@ SceneFile read_scene_file(const std::filesystem::path& path) {
 
     // Parse the TOML document
     toml::table root;
+    detail::check_toml_in_child(bytes, file);  // toml++ can crash: first in a child process
     try {
         root = toml::parse(std::string_view(bytes), std::string_view(file));
     } catch (const toml::parse_error& e) {

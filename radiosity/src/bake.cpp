@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "abrad/visdb/material_check.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
@@ -192,6 +193,11 @@ void check_unused(const BakeOptions& options, std::span<const std::string> given
 visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
                  const ProgressFn& progress) {
     validate(options);
+    // Materials as stored: a damaged or edited database (rho = 2) baked to NaN
+    for (const visdb::Material& m : scene.materials) {
+        const std::string problem = visdb::material_problem(m);
+        if (!problem.empty()) throw InputError("material '" + m.name + "': " + problem);
+    }
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     return arena.execute([&] {
         // Work in the local frame of a scene far from the origin (visdb::local_origin)

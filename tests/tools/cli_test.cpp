@@ -312,6 +312,55 @@ TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
     EXPECT_GT(abrad::testing::count_t_vertices(store.load_bake("plain").mesh), 0u);
 }
 
+// --dm-angle at its largest (20.7 degrees) on every sample (the FZK-Haus only in the
+// benchmark: too slow under the sanitizers): the refined mesh conforms and keeps every
+// surface's area. Known defect (issue 19): CGAL's Delaunay_mesher_2 crashes (a null face in
+// Triangulation_data_structure_2::star_hole, from Mesh_2::Refine_edges::insert_impl, called by
+// refine_mesh in radiosity/src/dm_mesh.cpp's triangulate) on the Cornell box and the furnished
+// room at every angle from 1 degree, so in the splitting of encroached constrained edges, not
+// the angle criterion; vertices merged by rounding the exact crossings to double are not the
+// cause (a guard refusing such copies did not stop it). The paper room refines.
+TEST_F(Cli, DmAngleRefinesEverySample) {
+    GTEST_SKIP() << "known defect: --dm-angle crashes CGAL's mesher on the Cornell box and the "
+                    "furnished room (see the comment above)";
+    struct Model {
+        std::string path;
+        std::string options;
+    };
+    std::vector<Model> models = {{sample("paper_simple/paper_simple.obj"), ""},
+                                 {sample("paper_simple/paper_occluder.obj"), ""},
+                                 {sample("cornell_box/CornellBox-Original.obj"), " --up y"},
+                                 {sample("furnished_room/furnished_room.obj"), ""}};
+    if (fs::exists(abrad::testing::shared_data("dxf/3dface.dxf"))) {
+        models.push_back({abrad::testing::shared_data("dxf/3dface.dxf").string(),
+                          " --scene " + sample("dxf_plan/scene.toml")});
+    }
+    for (const Model& m : models) {
+        const std::string db = path(fs::path(m.path).stem().string() + ".visdb").string();
+        ASSERT_EQ(run("import " + m.path + m.options + " --db " + db).status, 0) << m.path;
+        const Result r = run("bake --bounces 0 --dm-angle 20.7 --db " + db);
+        ASSERT_EQ(r.status, 0) << m.path << "\n" << r.output;
+        EXPECT_EQ(r.output.find(" 0 refinement points"), std::string::npos) << r.output;
+        const auto store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
+        const abrad::visdb::Scene scene = store.load_scene();
+        const auto bake = store.load_bake();
+        std::vector<double> area(scene.surfaces.size(), 0.0);
+        for (std::size_t t = 0; t < bake.mesh.triangles.size(); ++t)
+            area[bake.mesh.triangle_surface[t]] += abrad::testing::triangle_area(bake.mesh, t);
+        for (std::size_t s = 0; s < area.size(); ++s) {
+            double expected = 0.0;
+            const auto& mesh = scene.surfaces[s].mesh;
+            for (const auto& t : mesh.triangles) {
+                expected += abrad::visdb::triangle_area(mesh.positions[t.x], mesh.positions[t.y],
+                                                        mesh.positions[t.z]);
+            }
+            EXPECT_NEAR(area[s], expected, 1e-9 * expected)
+                << m.path << " " << scene.surfaces[s].name;
+        }
+        EXPECT_EQ(abrad::testing::count_t_vertices(bake.mesh), 0u) << m.path;
+    }
+}
+
 TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
     const std::string db = baked_db();
     const Result info = run("info --db " + db);

@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 #include <charconv>
+#include <cmath>
+#include <cstdlib>
 
 #include "abrad/convert/import.h"
 #include "abrad/export/render.h"
@@ -197,7 +199,16 @@ void add_view_options(CLI::App& app, ViewArgs& v) {
                    "Exposure k per W/m2 (or lm/m2): image value k*B, "
                    "display 1-exp(-k*B) (default: the bake's, 95th "
                    "percentile radiosity luminance -> 0.8)")
-        ->check(CLI::PositiveNumber);
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                // CLI::PositiveNumber lets nan and inf through (nan <= 0 is false)
+                char* end = nullptr;
+                const double k = std::strtod(text.c_str(), &end);
+                if (end == text.c_str() || *end != '\0' || !std::isfinite(k) || k <= 0.0)
+                    return std::string("must be a finite number > 0, got " + text);
+                return std::string();
+            },
+            "POSITIVE"));
 }
 
 // ---------------------------------------------------------------------------------------
