@@ -38,6 +38,8 @@ ToneMapped bake_of(const ExportJob& job) {
     const exporter::ToneMap tone = job.args.view.exposure
                                        ? exporter::ToneMap{.exposure = *job.args.view.exposure}
                                        : exporter::auto_tone_map(b.mesh);
+    // --simplify: a light mesh, toned as the bake itself
+    if (job.args.simplify) b.mesh = simplify_mesh(b, *job.args.simplify, "--simplify");
     return {std::move(b), tone};
 }
 
@@ -129,10 +131,10 @@ struct ExportFormat {
 // --db, --output, --bake, --format and --exposure apply to every format.
 const std::vector<ExportFormat>& export_formats() {
     static const std::vector<ExportFormat> kFormats = {
-        {"ply", {".ply"}, true, {"--ascii"}, write_ply},
-        {"obj", {".obj"}, true, {}, write_obj},
-        {"gltf", {".gltf", ".glb"}, true, {}, write_gltf},
-        {"pov", {".pov"}, true, {"--camera", "--width", "--height"}, write_pov},
+        {"ply", {".ply"}, true, {"--ascii", "--simplify"}, write_ply},
+        {"obj", {".obj"}, true, {"--simplify"}, write_obj},
+        {"gltf", {".gltf", ".glb"}, true, {"--simplify"}, write_gltf},
+        {"pov", {".pov"}, true, {"--camera", "--width", "--height", "--simplify"}, write_pov},
         {"pov-reference",
          {".pov"},
          false,
@@ -236,6 +238,10 @@ void add_export(CLI::App& app) {
     app.add_option("--output", s.output, "Output path")->required();
     app.add_option("--bake", s.bake, "Bake name (default: the latest)");
     app.add_flag("--ascii", s.ascii, "PLY as ASCII instead of binary little endian");
+    app.add_option("--simplify", s.simplify,
+                   "Export a light mesh: the bake decimated while the irradiance at every "
+                   "removed vertex changes by at most this fraction, in (0, 1] (as abrad "
+                   "simplify --error, without storing it)");
     add_view_options(app, s.view);
     app.add_option("--light-samples", s.view.light_samples,
                    "pov-reference: point lights sampling the emitters (cos-weighted spotlights)")
