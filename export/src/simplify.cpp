@@ -13,6 +13,12 @@
 
 #include "abrad/export/simplify.h"
 
+// OpenMesh's property arrays grow by pushing a default-constructed VectorT (uninitialised by
+// design); GCC 12 warns about that inside OpenMesh's templates when sanitizers are on.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
 #include <OpenMesh/Tools/Decimater/ModBaseT.hh>
