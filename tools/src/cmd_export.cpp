@@ -258,6 +258,8 @@ void add_export(CLI::App& app) {
 
 int run_export(const Invocation& call) {
     const ExportArgs& a = state();
+    if (call.app.count("--simplify") > 0 && !a.simplify)  // CLI11 reads "" as no value
+        bad_input("--simplify needs a bound in (0, 1]");
     check_options_used(call.app, choose_format(a));
     export_bake(a);
     return kExitOk;

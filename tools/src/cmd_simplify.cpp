@@ -70,11 +70,11 @@ int run_simplify(const Invocation&) {
     store.check_writable();  // before the work
     visdb::Bake b = load_bake_for(store, s.db, s.bake, "simplify");
     const std::string source = b.name;
-    b.mesh = simplify_mesh(b, s.error, "--error", s.floor);
     b.name = s.name.empty() ? source + "-simplified" : s.name;
     if (b.name == source)
         bad_input("--name " + b.name +
                   ": the simplified bake would replace the bake it is made of");
+    b.mesh = simplify_mesh(b, s.error, "--error", s.floor);
     b.created_at = utc_now();
     b.parameters.emplace_back("simplified_from", source);
     b.parameters.emplace_back("simplify_error", std::to_string(s.error));
