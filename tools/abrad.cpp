@@ -38,6 +38,9 @@ constexpr Command kCommands[] = {
      "Irradiance at points from a CSV file: exact direct light plus the indirect part gathered "
      "from a bake",
      add_probe, run_probe},
+    {"simplify",
+     "Store a light mesh of a bake: OpenMesh decimation within a relative irradiance bound",
+     add_simplify, run_simplify},
     {"field-error", "Gouraud-interpolated irradiance of a bake against the exact direct irradiance",
      add_field_error, run_field_error},
     {"run", "Import, bake and export in one go", add_run, run_run},

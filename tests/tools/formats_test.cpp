@@ -35,10 +35,8 @@ class Formats : public ::testing::Test {
         fs::remove_all(s_dir);
         fs::create_directories(s_dir);
         s_db = (s_dir / "room.visdb").string();
-        const Result imported = run("import " + std::string(ABRAD_SAMPLES) +
-                                    "/paper_simple/paper_occluder.obj --db " + s_db);
-        ASSERT_EQ(imported.status, 0) << imported.output;
-        const Result baked = run("bake --bounces 0 --dm off --db " + s_db);
+        const Result baked =
+            abrad::testing::import_and_bake_paper_room(s_db, "--bounces 0 --dm off");
         ASSERT_EQ(baked.status, 0) << baked.output;
     }
     static void TearDownTestSuite() { fs::remove_all(s_dir); }

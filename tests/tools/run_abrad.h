@@ -25,4 +25,15 @@ inline Result run_abrad(const std::string& args) {
     return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
 }
 
+#ifdef ABRAD_SAMPLES
+/// Imports the paper room sample into a new database `db` and bakes it with `bake_options`:
+/// the result of the first command that failed, else the bake's.
+inline Result import_and_bake_paper_room(const std::string& db, const std::string& bake_options) {
+    const Result imported = run_abrad("import " + std::string(ABRAD_SAMPLES) +
+                                      "/paper_simple/paper_occluder.obj --db " + db);
+    if (imported.status != 0) return imported;
+    return run_abrad("bake " + bake_options + " --db " + db);
+}
+#endif
+
 }  // namespace abrad::testing

@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 
 #include "abrad/convert/import.h"
 #include "abrad/export/render.h"
@@ -247,6 +248,15 @@ visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v) {
     } catch (const std::invalid_argument& e) {
         bad_input(e.what());
     }
+}
+
+std::string utc_now() {
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
 }
 
 }  // namespace abrad::tools::cli

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "abrad/export/simplify.h"
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/indirect.h"
 #include "abrad/visdb/model.h"
@@ -135,6 +136,9 @@ visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v);
 /// Seconds since `start` on the steady clock.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
+/// The time now, UTC, as ISO 8601 ("2026-11-30T18:06:40Z"), for a stored bake.
+std::string utc_now();
+
 // ---------------------------------------------------------------------------------------
 // The steps (each in its subcommand's file)
 
@@ -156,11 +160,18 @@ struct ExportArgs {
     bool ascii = false;
     std::string up;                    ///< y|z; empty: the format's convention (obj y, ply z)
     std::string positions = "double";  ///< ply: double|float
+    std::optional<double> simplify;  ///< export a light mesh: simplify_mesh's error bound
     ViewArgs view;
 };
 /// Exports a bake (or the model, pov-reference) in `a.format`, or the format the output's
 /// extension names; options the format does not use are checked by the export subcommand.
 void export_bake(const ExportArgs& a);
+
+/// The bake's mesh simplified within the relative irradiance bound `error` and the absolute
+/// `floor` (exporter::simplify), its statistics on stderr; `option` names the option that gave
+/// the bound in the bad-input message for a value outside (0, 1] (cmd_simplify.cpp).
+visdb::BakeMesh simplify_mesh(const visdb::Bake& bake, double error, const std::string& option,
+                              double floor = exporter::SimplifyOptions{}.floor);
 
 /// What render draws (cmd_render.cpp).
 struct RenderArgs {
@@ -199,5 +210,7 @@ void add_generate(CLI::App& app);
 int run_generate(const Invocation& call);
 void add_bench(CLI::App& app);
 int run_bench(const Invocation& call);
+void add_simplify(CLI::App& app);
+int run_simplify(const Invocation& call);
 
 }  // namespace abrad::tools::cli

@@ -8,7 +8,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -140,15 +139,6 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
                   << i->energy_absorbed_w << power << " + escaped " << i->energy_escaped_w << power
                   << " + unshot " << i->energy_unshot_w << power << "\n";
     }
-}
-
-std::string utc_now() {
-    const std::time_t t = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf;
 }
 
 // A file-name-safe form of a grid name.

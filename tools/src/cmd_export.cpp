@@ -38,6 +38,8 @@ ToneMapped bake_of(const ExportJob& job) {
     const exporter::ToneMap tone = job.args.view.exposure
                                        ? exporter::ToneMap{.exposure = *job.args.view.exposure}
                                        : exporter::auto_tone_map(b.mesh);
+    // --simplify: a light mesh, toned as the bake itself
+    if (job.args.simplify) b.mesh = simplify_mesh(b, *job.args.simplify, "--simplify");
     return {std::move(b), tone};
 }
 
@@ -141,10 +143,10 @@ struct ExportFormat {
 // --db, --output, --bake, --format and --exposure apply to every format.
 const std::vector<ExportFormat>& export_formats() {
     static const std::vector<ExportFormat> kFormats = {
-        {"ply", {".ply"}, true, {"--ascii", "--up", "--positions"}, write_ply},
-        {"obj", {".obj"}, true, {"--up"}, write_obj},
-        {"gltf", {".gltf", ".glb"}, true, {}, write_gltf},
-        {"pov", {".pov"}, true, {"--camera", "--width", "--height"}, write_pov},
+        {"ply", {".ply"}, true, {"--ascii", "--up", "--positions", "--simplify"}, write_ply},
+        {"obj", {".obj"}, true, {"--up", "--simplify"}, write_obj},
+        {"gltf", {".gltf", ".glb"}, true, {"--simplify"}, write_gltf},
+        {"pov", {".pov"}, true, {"--camera", "--width", "--height", "--simplify"}, write_pov},
         {"pov-reference",
          {".pov"},
          false,
@@ -257,6 +259,10 @@ void add_export(CLI::App& app) {
                    "header's 'comment origin X Y Z' (for web loaders such as three.js)")
         ->capture_default_str()
         ->check(CLI::IsMember({"double", "float"}));
+    app.add_option("--simplify", s.simplify,
+                   "Export a light mesh: the bake decimated while the irradiance at every "
+                   "removed vertex changes by at most this fraction, in (0, 1] (as abrad "
+                   "simplify --error, without storing it)");
     add_view_options(app, s.view);
     app.add_option("--light-samples", s.view.light_samples,
                    "pov-reference: point lights sampling the emitters (cos-weighted spotlights)")
@@ -273,6 +279,8 @@ void add_export(CLI::App& app) {
 
 int run_export(const Invocation& call) {
     const ExportArgs& a = state();
+    if (call.app.count("--simplify") > 0 && !a.simplify)  // CLI11 reads "" as no value
+        bad_input("--simplify needs a bound in (0, 1]");
     check_options_used(call.app, choose_format(a));
     export_bake(a);
     return kExitOk;

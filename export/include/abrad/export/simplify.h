@@ -1,0 +1,50 @@
+#pragma once
+// Light meshes: decimation of a baked mesh with OpenMesh's Decimater, a quadric module for
+// the shape and a module of abrad's own that bounds the change of irradiance at every
+// removed vertex (docs/algorithms.md#simplification). OpenMesh stays inside simplify.cpp.
+
+#include <cstddef>
+#include <string>
+
+#include "abrad/visdb/model.h"
+
+namespace abrad::exporter {
+
+/// How far the simplified mesh may depart from the bake.
+struct SimplifyOptions {
+    /// Relative change of irradiance allowed at every removed vertex, per channel: the
+    /// simplified mesh's interpolated value there differs from the baked one by at most
+    /// `error` × max(baked value, `floor` × the brightest value of the bake). In (0, 1].
+    double error = 0.02;
+    /// The absolute floor of the bound, a fraction of the brightest irradiance channel of
+    /// any vertex: dark areas are held to an absolute error instead of a relative one.
+    double floor = 0.1;
+};
+
+/// What a simplification did.
+struct SimplifyStats {
+    std::size_t triangles_before = 0;
+    std::size_t triangles_after = 0;
+    std::size_t vertices_before = 0;
+    std::size_t vertices_after = 0;
+    std::size_t locked_faces =
+        0;                 ///< faces OpenMesh could not join (non-manifold), kept as they are
+    double seconds = 0.0;  ///< wall seconds
+};
+
+/// "triangles 6552 -> 1203 (5.45x), vertices ..., locked faces N, 0.12 s".
+std::string to_string(const SimplifyStats& stats);
+
+/// Returns `mesh` with vertices removed by half-edge collapses while, at every removed
+/// vertex, the Gouraud-interpolated irradiance of the new triangles stays within the bound
+/// of `options`. What stays: every surface's boundary (a boundary vertex is removed only
+/// where its boundary runs straight through it), every kept vertex's exact position, normal,
+/// irradiance and radiosity, each face's surface and front. A crease is a boundary already
+/// (bake vertices are not shared across normals or surfaces). Faces that do not form a
+/// manifold are kept unchanged. Throws ExportError for a mesh whose arrays disagree in
+/// length, whose indices are out of range, or that has no irradiance, and for options
+/// outside their ranges.
+visdb::BakeMesh simplify(const visdb::BakeMesh& mesh, const SimplifyOptions& options,
+                         SimplifyStats* stats = nullptr);
+
+}  // namespace abrad::exporter

@@ -1,0 +1,221 @@
+// Tests of the light-mesh simplification (export/src/simplify.cpp): fields with known answers
+// on finely meshed planes, against an evaluation of the simplified mesh written here.
+
+#include "abrad/export/simplify.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <set>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "abrad/export/writers.h"
+
+namespace abrad::exporter {
+namespace {
+
+using Field = std::function<double(double x, double y)>;
+
+// The unit square in z = 0 as an n × n grid of cells, two triangles each (front +z), of
+// surface `surface`, with irradiance `h` at every vertex (all three channels) and radiosity
+// half of it.
+visdb::BakeMesh grid(int n, const Field& h, std::uint32_t surface = 0) {
+    visdb::BakeMesh m;
+    const auto at = [n](int i, int j) { return static_cast<std::uint32_t>(j * (n + 1) + i); };
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const double x = double(i) / n;
+            const double y = double(j) / n;
+            m.positions.emplace_back(x, y, 0.0);
+            m.normals.emplace_back(0.0f, 0.0f, 1.0f);
+            const auto v = static_cast<float>(h(x, y));
+            m.irradiance.emplace_back(v);
+            m.radiosity.emplace_back(0.5f * v);
+        }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            m.triangles.emplace_back(at(i, j), at(i + 1, j), at(i + 1, j + 1));
+            m.triangles.emplace_back(at(i, j), at(i + 1, j + 1), at(i, j + 1));
+            m.triangle_surface.insert(m.triangle_surface.end(), 2, surface);
+        }
+    return m;
+}
+
+// The Gouraud-interpolated irradiance (red) of `m` at (x, y) in z = 0, or nothing outside.
+std::optional<double> interpolate(const visdb::BakeMesh& m, double x, double y) {
+    for (const glm::u32vec3& t : m.triangles) {
+        const glm::dvec3 a = m.positions[t.x], b = m.positions[t.y], c = m.positions[t.z];
+        const double d = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+        const double u = ((b.x - x) * (c.y - y) - (c.x - x) * (b.y - y)) / d;
+        const double v = ((c.x - x) * (a.y - y) - (a.x - x) * (c.y - y)) / d;
+        const double w = 1.0 - u - v;
+        if (std::min({u, v, w}) < -1e-9) continue;
+        return u * m.irradiance[t.x].x + v * m.irradiance[t.y].x + w * m.irradiance[t.z].x;
+    }
+    return std::nullopt;
+}
+
+double area(const visdb::BakeMesh& m) {
+    double sum = 0.0;
+    for (const glm::u32vec3& t : m.triangles) {
+        const glm::dvec3 a = m.positions[t.x], b = m.positions[t.y], c = m.positions[t.z];
+        const double z = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+        EXPECT_GT(z, 0.0) << "a triangle turned its back";
+        sum += 0.5 * z;
+    }
+    return sum;
+}
+
+TEST(Simplify, LinearFieldCollapsesToFewTrianglesExactly) {
+    const Field linear = [](double x, double y) { return 10.0 + 4.0 * x - 3.0 * y; };
+    const visdb::BakeMesh in = grid(16, linear);
+    SimplifyStats stats;
+    const visdb::BakeMesh out = simplify(in, {.error = 0.001}, &stats);
+    EXPECT_EQ(stats.triangles_before, 512u);
+    EXPECT_EQ(stats.triangles_after, out.triangles.size());
+    EXPECT_LE(out.triangles.size(), 4u);  // the square's 2, and room for a stuck collapse
+    EXPECT_NEAR(area(out), 1.0, 1e-12);   // the outline is kept
+    // The field is linear, so the simplified mesh reproduces it everywhere
+    for (int j = 0; j <= 40; ++j)
+        for (int i = 0; i <= 40; ++i) {
+            const double x = i / 40.0, y = j / 40.0;
+            const std::optional<double> h = interpolate(out, x, y);
+            ASSERT_TRUE(h) << "(" << x << ", " << y << ") is no longer covered";
+            EXPECT_NEAR(*h, linear(x, y), 1e-5 * linear(x, y));
+        }
+    // Kept vertices carry the bake's exact values
+    for (std::size_t v = 0; v < out.positions.size(); ++v) {
+        const glm::dvec3 p = out.positions[v];
+        EXPECT_FLOAT_EQ(out.irradiance[v].y, static_cast<float>(linear(p.x, p.y)));
+        EXPECT_FLOAT_EQ(out.radiosity[v].z, 0.5f * static_cast<float>(linear(p.x, p.y)));
+        EXPECT_EQ(out.normals[v], glm::vec3(0.0f, 0.0f, 1.0f));
+    }
+}
+
+// An L-shaped surface (the unit square without its top right quarter) keeps its outline,
+// the reflex corner included, where a linear field would let every vertex go.
+TEST(Simplify, KeepsTheOutline) {
+    const Field linear = [](double x, double y) { return 2.0 + x + y; };
+    visdb::BakeMesh in = grid(8, linear);
+    visdb::BakeMesh l = in;
+    l.triangles.clear();
+    l.triangle_surface.clear();
+    for (std::size_t t = 0; t < in.triangles.size(); ++t) {
+        const glm::u32vec3 tri = in.triangles[t];
+        const glm::dvec3 c =
+            (in.positions[tri.x] + in.positions[tri.y] + in.positions[tri.z]) / 3.0;
+        if (c.x > 0.5 && c.y > 0.5) continue;
+        l.triangles.push_back(tri);
+        l.triangle_surface.push_back(0);
+    }
+    const visdb::BakeMesh out = simplify(l, {.error = 0.01});
+    EXPECT_LE(out.triangles.size(), 8u);
+    EXPECT_NEAR(area(out), 0.75, 1e-12);
+    const auto has_vertex = [&](double x, double y) {
+        return std::any_of(out.positions.begin(), out.positions.end(),
+                           [&](const glm::dvec3& p) { return p.x == x && p.y == y; });
+    };
+    for (const auto& [x, y] :
+         {std::pair{0.0, 0.0}, {1.0, 0.0}, {1.0, 0.5}, {0.5, 0.5}, {0.5, 1.0}, {0.0, 1.0}})
+        EXPECT_TRUE(has_vertex(x, y)) << "corner (" << x << ", " << y << ") lost";
+}
+
+// A shadow boundary: full light left of x = 0.5, a tenth of it right of x = 0.5 + 1/n (a
+// penumbra one cell wide). Its edges must stay within the bound at every vertex of the bake.
+TEST(Simplify, StepFieldKeepsItsEdgeWithinTheBound) {
+    constexpr int kCells = 20;
+    const Field step = [](double x, double) {
+        const double t = std::clamp((x - 0.5) * kCells, 0.0, 1.0);
+        return 100.0 * (1.0 - t) + 10.0 * t;
+    };
+    const visdb::BakeMesh in = grid(kCells, step);
+    constexpr double kError = 0.02;
+    const visdb::BakeMesh out = simplify(in, {.error = kError, .floor = 0.0});
+    EXPECT_LT(out.triangles.size(), in.triangles.size() / 8);
+    EXPECT_NEAR(area(out), 1.0, 1e-12);
+    for (const glm::dvec3& p : in.positions) {
+        const std::optional<double> h = interpolate(out, p.x, p.y);
+        ASSERT_TRUE(h);
+        const double baked = static_cast<float>(step(p.x, p.y));
+        EXPECT_LE(std::abs(*h - baked), kError * baked * (1.0 + 1e-6))
+            << "at (" << p.x << ", " << p.y << ")";
+    }
+    // The two kinks of the penumbra are still lines of vertices
+    std::set<double> kink_vertices;
+    for (const glm::dvec3& p : out.positions)
+        if (p.x == 0.5 || p.x == 0.5 + 1.0 / kCells) kink_vertices.insert(p.x);
+    EXPECT_EQ(kink_vertices.size(), 2u);
+}
+
+// A rough field leaves little to remove: pseudo-random values in [1, 2) keep nearly every
+// vertex at a 1 % bound (a few fit their neighbours by chance), and every vertex of the bake,
+// kept or not, stays within the bound. (The bound is checked at the bake's vertices only: a
+// checkerboard, constant along the grid's diagonals, would lose vertices along them.)
+TEST(Simplify, RoughFieldKeepsItsVerticesWithinTheBound) {
+    const Field noise = [](double x, double y) {
+        const double s = std::sin(x * 8 * 12.9898 + y * 8 * 78.233) * 43758.5453;
+        return 1.0 + (s - std::floor(s));
+    };
+    const visdb::BakeMesh in = grid(8, noise);
+    constexpr double kError = 0.01;
+    const visdb::BakeMesh out = simplify(in, {.error = kError});
+    EXPECT_GE(out.positions.size(), in.positions.size() * 9 / 10);
+    for (std::size_t v = 0; v < in.positions.size(); ++v) {
+        const std::optional<double> h = interpolate(out, in.positions[v].x, in.positions[v].y);
+        ASSERT_TRUE(h);
+        const double baked = in.irradiance[v].x;
+        EXPECT_LE(std::abs(*h - baked), kError * baked * (1.0 + 1e-6));
+    }
+}
+
+// Two surfaces side by side with vertices of their own: their shared border stays, and each
+// face keeps its surface.
+TEST(Simplify, KeepsSurfacesApart) {
+    const Field flat = [](double, double) { return 5.0; };
+    visdb::BakeMesh a = grid(6, flat, 0);
+    const visdb::BakeMesh b = grid(6, flat, 1);
+    const auto offset = static_cast<std::uint32_t>(a.positions.size());
+    for (std::size_t v = 0; v < b.positions.size(); ++v) {
+        a.positions.push_back(b.positions[v] + glm::dvec3(1.0, 0.0, 0.0));
+        a.normals.push_back(b.normals[v]);
+        a.irradiance.push_back(b.irradiance[v]);
+        a.radiosity.push_back(b.radiosity[v]);
+    }
+    for (std::size_t t = 0; t < b.triangles.size(); ++t) {
+        a.triangles.push_back(b.triangles[t] + glm::u32vec3(offset));
+        a.triangle_surface.push_back(1);
+    }
+    const visdb::BakeMesh out = simplify(a, {.error = 0.01});
+    EXPECT_LE(out.triangles.size(), 8u);
+    std::set<std::uint32_t> surfaces(out.triangle_surface.begin(), out.triangle_surface.end());
+    EXPECT_EQ(surfaces, (std::set<std::uint32_t>{0, 1}));
+    for (std::size_t t = 0; t < out.triangles.size(); ++t) {
+        const glm::u32vec3 tri = out.triangles[t];
+        const double cx =
+            (out.positions[tri.x].x + out.positions[tri.y].x + out.positions[tri.z].x) / 3.0;
+        EXPECT_EQ(out.triangle_surface[t], cx < 1.0 ? 0u : 1u);
+    }
+}
+
+TEST(Simplify, RefusesBadOptionsAndMeshes) {
+    const visdb::BakeMesh in = grid(2, [](double, double) { return 1.0; });
+    EXPECT_THROW(simplify(in, {.error = 0.0}), ExportError);
+    EXPECT_THROW(simplify(in, {.error = 1.5}), ExportError);
+    EXPECT_THROW(simplify(in, {.error = std::numeric_limits<double>::quiet_NaN()}), ExportError);
+    EXPECT_THROW(simplify(in, {.error = 0.1, .floor = -1.0}), ExportError);
+    visdb::BakeMesh broken = in;
+    broken.triangles[0].z = 99;
+    EXPECT_THROW(simplify(broken, {}), ExportError);
+    broken = in;
+    broken.irradiance.clear();
+    EXPECT_THROW(simplify(broken, {}), ExportError);
+}
+
+}  // namespace
+}  // namespace abrad::exporter
