@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 #include <initializer_list>
 #include <map>
 #include <set>
@@ -23,6 +24,7 @@
 #include <tuple>
 #include <utility>
 
+#include "abrad/convert/photometry.h"
 #include "abrad/visdb/material_check.h"
 #include "child_process.h"
 #include "raw_model.h"
@@ -283,6 +285,20 @@ struct Emission {
     visdb::Rgb color{1.0, 1.0, 1.0};
 };
 
+/// `color`: each channel >= 0, scaled to luminance 1; white when absent.
+visdb::Rgb read_color(const TableReader& reader, const std::string& section) {
+    const auto color = reader.vec3("color");
+    if (!color) return visdb::Rgb(1.0);
+    reader.check_range("color", *color, 0.0, HUGE_VAL, ">= 0");
+    const double y = luminance(*color);
+    if (!(y > 0.0)) {
+        reader.fail(
+            reader.line("color"),
+            "'color' in " + section + " must have a positive luminance, got " + fmt(*color));
+    }
+    return *color / y;
+}
+
 Emission read_emission(const TableReader& reader, const std::string& section) {
     Emission e;
     e.emittance = reader.rgb("emittance");
@@ -297,17 +313,10 @@ Emission read_emission(const TableReader& reader, const std::string& section) {
                                              std::to_string(reader.line("emittance")) +
                                              "); give one");
     }
-    if (const auto color = reader.vec3("color")) {
-        if (!e.flux) reader.fail(reader.line("color"), "'color' in " + section + " needs 'flux'");
-        reader.check_range("color", *color, 0.0, HUGE_VAL, ">= 0");
-        const double y = luminance(*color);
-        if (!(y > 0.0)) {
-            reader.fail(
-                reader.line("color"),
-                "'color' in " + section + " must have a positive luminance, got " + fmt(*color));
-        }
-        e.color = *color / y;
+    if (reader.has("color") && !e.flux) {
+        reader.fail(reader.line("color"), "'color' in " + section + " needs 'flux'");
     }
+    e.color = read_color(reader, section);
     return e;
 }
 
@@ -427,6 +436,154 @@ void read_emitter(const std::string& file, const toml::table& table, SceneFile& 
     rect.flux = e.flux;
     rect.color = e.color;
     scene.rectangles.push_back(rect);
+}
+
+/// The photometric frame of a luminaire turned by `degrees` about world x, then y, then z.
+void set_rotation(visdb::Luminaire& l, const glm::dvec3& degrees) {
+    const glm::dvec3 r = glm::radians(degrees);
+    const auto rotate = [&r](glm::dvec3 v) {
+        v = {v.x, std::cos(r.x) * v.y - std::sin(r.x) * v.z,
+             std::sin(r.x) * v.y + std::cos(r.x) * v.z};
+        v = {std::cos(r.y) * v.x + std::sin(r.y) * v.z, v.y,
+             -std::sin(r.y) * v.x + std::cos(r.y) * v.z};
+        return glm::dvec3{std::cos(r.z) * v.x - std::sin(r.z) * v.y,
+                          std::sin(r.z) * v.x + std::cos(r.z) * v.y, v.z};
+    };
+    l.axis_x = rotate({1.0, 0.0, 0.0});
+    l.axis_y = rotate({0.0, 1.0, 0.0});
+    l.axis_z = rotate({0.0, 0.0, 1.0});
+}
+
+/// The photometric frame of a luminaire whose nadir (-z) points along the unit `aim`: x is
+/// world x projected into the plane across the aim (world y when aiming along x).
+void set_aim(visdb::Luminaire& l, const glm::dvec3& aim) {
+    l.axis_z = -aim;
+    const glm::dvec3 x = std::abs(aim.x) > 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+    l.axis_x = glm::normalize(x - glm::dot(x, l.axis_z) * l.axis_z);
+    l.axis_y = glm::cross(l.axis_z, l.axis_x);
+}
+
+/// The opening a [[luminaire]] asks for: the file's, a point, or a rectangle or disc of
+/// `opening_size`.
+visdb::LuminousOpening read_opening(const TableReader& reader, const visdb::LuminousOpening& file) {
+    using Shape = visdb::LuminousOpening::Shape;
+    const std::string kind = reader.string("opening").value_or("file");
+    const auto size = reader.vec2("opening_size");
+    const bool sized = kind == "rectangle" || kind == "disc";
+    if (kind != "file" && kind != "point" && !sized) {
+        reader.fail(reader.line("opening"), reader.name("opening") +
+                                                " must be file, point, rectangle or disc, got " +
+                                                in_quotes(kind));
+    }
+    if (size && !sized) {
+        reader.fail(reader.line("opening_size"),
+                    reader.name("opening_size") + " needs opening = \"rectangle\" or \"disc\"");
+    }
+    if (kind == "file") return file;
+    visdb::LuminousOpening o;
+    if (!sized) return o;
+    if (!size)
+        reader.fail(reader.line("opening"), "opening " + in_quotes(kind) + " needs 'opening_size'");
+    if (!(size->x > 0.0 && size->y > 0.0)) {
+        reader.fail(reader.line("opening_size"),
+                    reader.name("opening_size") + " must be > 0, got " + fmt(*size));
+    }
+    o.shape = kind == "disc" ? Shape::Disc : Shape::Rectangle;
+    o.length = size->x;
+    o.width = size->y;
+    return o;
+}
+
+/// A [[luminaire]]: its photometric file read (relative to the scene file's folder), its frame
+/// resolved, one SceneLuminaire for each of its `count`.
+void read_luminaire(const std::string& file, const toml::table& table, bool allow_outside_refs,
+                    SceneFile& scene) {
+    const std::string section = "[[luminaire]]";
+    const TableReader reader(
+        file, table, section,
+        {"file", "name", "position", "rotation", "target", "count", "step", "flux_scale",
+         "maintenance_factor", "color", "opening", "opening_size"});
+    const std::size_t line = reader.line();
+    for (const char* key : {"file", "position"}) {
+        if (!reader.has(key)) reader.fail(line, section + " needs '" + key + "'");
+    }
+    const std::string ref = *reader.string("file");
+    if (ref.empty()) reader.fail(reader.line("file"), reader.name("file") + " is empty");
+    visdb::Luminaire l;
+    l.position = *reader.vec3("position");
+    const auto rotation = reader.vec3("rotation");
+    const auto target = reader.vec3("target");
+    if (rotation && target) {
+        reader.fail(reader.line("target"), section + " gives both 'rotation' (line " +
+                                               std::to_string(reader.line("rotation")) +
+                                               ") and 'target'; give one");
+    }
+    if (rotation) set_rotation(l, *rotation);
+    if (target) {
+        const glm::dvec3 aim = *target - l.position;
+        if (!(glm::length(aim) > 0.0)) {
+            reader.fail(reader.line("target"), reader.name("target") + " equals 'position'");
+        }
+        set_aim(l, glm::normalize(aim));
+    }
+    const double count = reader.number("count").value_or(1.0);
+    if (!(count >= 1.0 && count <= 10000.0 && count == std::floor(count))) {
+        reader.fail(
+            reader.line("count"),
+            reader.name("count") + " must be a whole number from 1 to 10000, got " + fmt(count));
+    }
+    const auto step = reader.vec3("step");
+    if (count > 1.0 && !step) reader.fail(reader.line("count"), "'count' > 1 needs 'step'");
+    if (step && count == 1.0) reader.fail(reader.line("step"), "'step' needs 'count' > 1");
+    if (const auto f = reader.number("flux_scale")) {
+        if (!(*f > 0.0)) {
+            reader.fail(reader.line("flux_scale"),
+                        reader.name("flux_scale") + " must be > 0, got " + fmt(*f));
+        }
+        l.flux_scale = *f;
+    }
+    if (const auto m = reader.number("maintenance_factor")) {
+        if (!(*m > 0.0 && *m <= 1.0)) {
+            reader.fail(reader.line("maintenance_factor"),
+                        reader.name("maintenance_factor") + " must be in (0, 1], got " + fmt(*m));
+        }
+        l.maintenance_factor = *m;
+    }
+    l.color = read_color(reader, section);
+
+    // The photometric file, inside the scene file's folder
+    const std::filesystem::path scene_path(file);
+    const std::filesystem::path resolved = std::filesystem::path(ref).is_absolute()
+                                               ? std::filesystem::path(ref)
+                                               : scene_path.parent_path() / ref;
+    if (!allow_outside_refs) {
+        detail::check_reference_inside(resolved, scene_path, file, reader.line("file"),
+                                       "photometric file");
+    }
+    const PhotometricFile photometry = read_photometric_file(resolved);
+    l.opening = read_opening(reader, photometry.opening);
+    l.file = resolved.string();
+    l.checksum = photometry.checksum;
+    l.web = photometry.web;
+    const std::string name = reader.string("name").value_or(
+        std::filesystem::path(ref).stem().string() + " (line " + std::to_string(line) + ")");
+    if (name.empty()) reader.fail(reader.line("name"), reader.name("name") + " is empty");
+    const auto n = static_cast<int>(count);
+    for (int i = 0; i < n; ++i) {
+        SceneLuminaire sl;
+        sl.line = line;
+        sl.luminaire = l;
+        sl.luminaire.name = n == 1 ? name : name + " " + std::to_string(i + 1);
+        if (step) sl.luminaire.position += static_cast<double>(i) * *step;
+        sl.flux_report = photometry.flux_report();
+        for (const SceneLuminaire& other : scene.luminaires) {
+            if (other.luminaire.name == sl.luminaire.name) {
+                reader.fail(line, "luminaire " + in_quotes(sl.luminaire.name) +
+                                      " is already defined at line " + std::to_string(other.line));
+            }
+        }
+        scene.luminaires.push_back(std::move(sl));
+    }
 }
 
 SceneCamera read_camera(const std::string& file, const toml::table& table) {
@@ -574,6 +731,37 @@ std::string what_matches_nothing(const char* section, const SurfaceMatch& match)
     return std::string(section) + " matches no surface (" + match.to_string() + ")";
 }
 
+/// Refuses luminaires whose names the scene already has.
+void check_luminaire_names(const SceneFile& file, const visdb::Scene& scene) {
+    for (const SceneLuminaire& l : file.luminaires) {
+        for (const auto& existing : scene.luminaires) {
+            if (existing.name == l.luminaire.name) {
+                throw ImportError(
+                    file.path, l.line,
+                    "luminaire " + in_quotes(l.luminaire.name) + " already exists in the scene");
+            }
+        }
+    }
+}
+
+/// Appends the file's luminaires to the scene, with a note for each [[luminaire]] table: its
+/// file's flux against its lamps and the flux placed.
+template <class Note>
+void add_luminaires(const SceneFile& file, visdb::Scene& scene, const Note& note) {
+    for (std::size_t i = 0; i < file.luminaires.size(); ++i) {
+        const SceneLuminaire& l = file.luminaires[i];
+        scene.luminaires.push_back(l.luminaire);
+        if (i > 0 && file.luminaires[i - 1].line == l.line) continue;  // one note a table
+        std::size_t n = 1;
+        while (i + n < file.luminaires.size() && file.luminaires[i + n].line == l.line) ++n;
+        note(l.line, "luminaire " + in_quotes(l.luminaire.name) +
+                         (n > 1 ? " and " + std::to_string(n - 1) + " more" : std::string()) +
+                         ": " + l.luminaire.file + ": " + l.flux_report + "; placed " +
+                         fmt(l.luminaire.flux()) + " lm each (scale " + fmt(l.luminaire.scale()) +
+                         ")");
+    }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -651,7 +839,7 @@ bool SceneFile::uses_flux() const {
     for (const auto& r : rectangles) {
         if (r.flux) return true;
     }
-    return false;
+    return !luminaires.empty();
 }
 
 bool SceneFile::is_photometric() const { return photometric.value_or(uses_flux()); }
@@ -676,7 +864,16 @@ std::string SceneFile::to_string() const {
         s += "exclude line " + std::to_string(e.line) + ": " + e.match.to_string() + "\n";
     }
     for (const auto& g : grids) s += g.to_string() + "\n";
+    for (const auto& l : luminaires) s += l.to_string() + "\n";
     return s;
+}
+
+std::string SceneLuminaire::to_string() const {
+    const visdb::Luminaire& l = luminaire;
+    return "luminaire line " + std::to_string(line) + ": " + in_quotes(l.name) + " " + l.file +
+           " at " + fmt(l.position) + " nadir toward " + fmt(-l.axis_z) + " C0 along " +
+           fmt(l.axis_x) + " scale " + fmt(l.flux_scale) + " x " + fmt(l.maintenance_factor) +
+           " opening " + visdb::to_string(l.opening.shape) + "; " + flux_report;
 }
 
 std::string SceneFileReport::to_string() const {
@@ -692,6 +889,7 @@ std::string SceneFileReport::to_string() const {
     row("emitters added", emitters_added);
     row("cameras", cameras);
     row("grids", grids);
+    row("luminaires", luminaires);
     row("notes", notes.size());
     for (const std::string& note : notes) {
         s += "  ";
@@ -704,7 +902,7 @@ std::string SceneFileReport::to_string() const {
 // ---------------------------------------------------------------------------------------------
 // read_scene_file
 
-SceneFile read_scene_file(const std::filesystem::path& path) {
+SceneFile read_scene_file(const std::filesystem::path& path, bool allow_outside_refs) {
     SceneFile scene;
     scene.path = path.string();
     const std::string& file = scene.path;
@@ -724,7 +922,7 @@ SceneFile read_scene_file(const std::filesystem::path& path) {
     // Top-level settings
     const TableReader top(file, root, "",
                           {"unit", "up", "origin_shift", "weld_tolerance", "photometric", "rule",
-                           "emitter", "camera", "exclude", "grid"});
+                           "emitter", "camera", "exclude", "grid", "luminaire"});
     if (const auto unit = top.string("unit")) {
         try {
             (void)metres_per_unit(*unit);
@@ -784,6 +982,10 @@ SceneFile read_scene_file(const std::filesystem::path& path) {
         scene.grids.push_back(std::move(grid));
     }
 
+    for (const toml::table* t : section_tables(file, root, "luminaire")) {
+        read_luminaire(file, *t, allow_outside_refs, scene);
+    }
+
     // A flux needs photometric mode
     if (scene.photometric && !*scene.photometric) {
         std::size_t flux_line = 0;
@@ -793,9 +995,13 @@ SceneFile read_scene_file(const std::filesystem::path& path) {
         for (const auto& r : scene.rectangles) {
             if (r.flux && (flux_line == 0 || r.line < flux_line)) flux_line = r.line;
         }
+        for (const auto& l : scene.luminaires) {
+            if (flux_line == 0 || l.line < flux_line) flux_line = l.line;
+        }
         if (flux_line > 0) {
             throw ImportError(file, flux_line,
-                              "'flux' (lumens) needs photometric mode, but the file sets "
+                              "'flux' (lumens) or a luminaire needs photometric mode, but the "
+                              "file sets "
                               "photometric = false (line " +
                                   std::to_string(top.line("photometric")) + ")");
         }
@@ -896,6 +1102,8 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
             }
         }
     }
+
+    check_luminaire_names(file, scene);
 
     // Exclusions
     std::vector<bool> excluded(n_surfaces, false);
@@ -1121,6 +1329,8 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
     report.cameras = file.cameras.size();
     for (auto& g : grids) scene.grids.push_back(std::move(g));
     report.grids = grids.size();
+    add_luminaires(file, scene, note);
+    report.luminaires = file.luminaires.size();
     if (set_unit) scene.emittance_unit = file.is_photometric() ? "lm/m2" : "W/m2";
 
     // Notes in file order (those about the whole file last)

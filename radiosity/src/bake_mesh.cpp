@@ -81,6 +81,15 @@ void add_surface(const visdb::Surface& surface, std::uint32_t index,
 }  // namespace
 
 BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats) {
+    // Luminaires from photometric files are imported and stored, but the bake does not shoot
+    // them yet: refused rather than baked without their light
+    if (!scene.luminaires.empty()) {
+        throw InputError("the scene has " + std::to_string(scene.luminaires.size()) +
+                         " luminaire(s) from photometric files (first '" +
+                         scene.luminaires.front().name +
+                         "'); baking their light is not supported yet: import without the "
+                         "[[luminaire]] tables to bake");
+    }
     BakeGeometry g;
     std::uint64_t degenerate = 0;
     for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {

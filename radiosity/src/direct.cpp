@@ -1,7 +1,9 @@
-// Exact direct irradiance at arbitrary points (calculation grids, probes).
+// Exact direct irradiance at arbitrary points (calculation grids, probes): from light triangles
+// (exact.h) and from luminaires as point sources.
 
 #include "abrad/radiosity/direct.h"
 
+#include <algorithm>
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -37,11 +39,86 @@ std::vector<Patch> scene_patches(const visdb::Scene& scene, std::vector<visdb::R
 }  // namespace
 
 DirectField::DirectField(const visdb::Scene& scene)
-    : m_patches(scene_patches(scene, m_emittance)), m_bvh(m_patches) {
+    : m_patches(scene_patches(scene, m_emittance)),
+      m_luminaires(scene.luminaires),
+      m_bvh(m_patches) {
     for (std::size_t i = 0; i < m_patches.size(); ++i)
         if (visdb::any_positive(m_emittance[i])) m_lights.push_back(static_cast<std::uint32_t>(i));
-    if (m_lights.empty())
-        throw InputError("the scene has no light sources (no material with emittance > 0)");
+    if (m_lights.empty() && m_luminaires.empty()) {
+        throw InputError(
+            "the scene has no light sources (no material with emittance > 0, no luminaire)");
+    }
+}
+
+double segment_crossing(const Patch& p, const glm::dvec3& a, const glm::dvec3& b) {
+    constexpr double kEnd = 1e-9;
+    const glm::dvec3 d = b - a;
+    const glm::dvec3 e1 = p.p[1] - p.p[0];
+    const glm::dvec3 e2 = p.p[2] - p.p[0];
+    const glm::dvec3 h = glm::cross(d, e2);
+    const double det = glm::dot(e1, h);
+    if (det == 0.0 || !std::isfinite(det)) return -1.0;  // in the triangle's plane: grazes
+    const double inv = 1.0 / det;
+    // Barycentric coordinates of the crossing, then its place t along the segment
+    const glm::dvec3 s = a - p.p[0];
+    const double u = glm::dot(s, h) * inv;
+    if (u < 0.0 || u > 1.0) return -1.0;
+    const glm::dvec3 q = glm::cross(s, e1);
+    const double v = glm::dot(d, q) * inv;
+    if (v < 0.0 || u + v > 1.0) return -1.0;
+    const double t = glm::dot(e2, q) * inv;
+    return t > kEnd && t < 1.0 - kEnd ? t : -1.0;
+}
+
+double transmittance(std::span<const Patch> patches, const Bvh& bvh, const glm::dvec3& x,
+                     const glm::dvec3& source) {
+    // Every crossing along the segment, then 1 − α of each, coplanar ones at one place once
+    struct Crossing {
+        double t;
+        std::uint32_t patch;
+    };
+    std::vector<Crossing> crossings;
+    const glm::dvec3 ends[2] = {x, source};
+    bool opaque = false;
+    bvh.query(Hull(ends), [&](std::uint32_t id) {
+        if (opaque) return;
+        const double t = segment_crossing(patches[id], x, source);
+        if (t < 0.0) return;
+        opaque = patches[id].opacity >= 1.0;
+        crossings.push_back({t, id});
+    });
+    if (opaque) return 0.0;
+    std::sort(crossings.begin(), crossings.end(),
+              [](const Crossing& a, const Crossing& b) { return a.t < b.t; });
+    double through = 1.0;
+    for (std::size_t i = 0; i < crossings.size(); ++i) {
+        const Patch& p = patches[crossings[i].patch];
+        if (i > 0 && crossings[i].t - crossings[i - 1].t <= 1e-9) {
+            const Patch& q = patches[crossings[i - 1].patch];
+            const glm::dvec3 np = unit_normal(p);
+            if (glm::length(glm::cross(np, unit_normal(q))) <= 1e-9 &&
+                std::abs(glm::dot(np, q.p[0] - p.p[0])) <= 1e-9 * glm::length(source - x)) {
+                continue;  // the same surface, through an edge its triangles share
+            }
+        }
+        through *= 1.0 - p.opacity;
+    }
+    return through;
+}
+
+visdb::Rgb point_source_irradiance(const visdb::Luminaire& luminaire,
+                                   std::span<const Patch> patches, const Bvh& bvh,
+                                   const glm::dvec3& x, const glm::dvec3& n) {
+    // Direction and distance to the source; nothing from behind the surface
+    const glm::dvec3 to_source = luminaire.position - x;
+    const double d2 = glm::dot(to_source, to_source);
+    if (!(d2 > 0.0)) return visdb::Rgb(0.0);
+    const glm::dvec3 w = to_source / std::sqrt(d2);
+    const double cos_theta = glm::dot(n, w);
+    if (cos_theta <= 0.0) return visdb::Rgb(0.0);
+    const visdb::Rgb intensity = luminaire.intensity(-w);
+    if (!visdb::any_positive(intensity)) return visdb::Rgb(0.0);
+    return intensity * (cos_theta / d2 * transmittance(patches, bvh, x, luminaire.position));
 }
 
 visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
@@ -67,7 +144,10 @@ visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visd
 
 visdb::Rgb DirectField::irradiance(const glm::dvec3& x, const glm::dvec3& n) const {
     std::vector<const Patch*> occluders;
-    return exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders);
+    visdb::Rgb h = exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders);
+    for (const visdb::Luminaire& l : m_luminaires)
+        h += point_source_irradiance(l, m_patches, m_bvh, x, n);
+    return h;
 }
 
 }  // namespace abrad::radiosity

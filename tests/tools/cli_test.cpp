@@ -365,9 +365,12 @@ TEST_F(Cli, InfoAndExportNameWhatTheyRead) {
     const std::string db = baked_db();
     const Result info = run("info --db " + db);
     ASSERT_EQ(info.status, 0) << info.output;
-    for (const char* needle :
-         {"schema 2", "paper_occluder.obj", "triangles 3213", "lights: 2 triangles", "bakes (1)",
-          "first", "method=abuffer", "resolution=50", "seconds_total="})
+    const std::string schema = "schema " + std::to_string(abrad::visdb::kSchemaVersion);
+    for (const std::string& needle :
+         {schema, std::string("paper_occluder.obj"), std::string("triangles 3213"),
+          std::string("lights: 2 triangles"), std::string("bakes (1)"), std::string("first"),
+          std::string("method=abuffer"), std::string("resolution=50"),
+          std::string("seconds_total="), std::string("luminaires (0)")})
         EXPECT_NE(info.output.find(needle), std::string::npos) << needle << "\n" << info.output;
     // ASCII export and binary export carry the same numbers of elements
     ASSERT_EQ(run("export --db " + db + " --format ply --ascii --output " + path("a.ply").string())

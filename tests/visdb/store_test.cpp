@@ -236,6 +236,29 @@ void expect_same_scene(const visdb::Scene& expected, const visdb::Scene& actual)
         EXPECT_EQ(bits(glm::dvec3(e.max, e.spacing)), bits(glm::dvec3(a.max, a.spacing)));
         EXPECT_EQ(bits(e.normal), bits(a.normal));
     }
+    ASSERT_EQ(expected.luminaires.size(), actual.luminaires.size());
+    for (std::size_t i = 0; i < expected.luminaires.size(); ++i) {
+        const auto& e = expected.luminaires[i];
+        const auto& a = actual.luminaires[i];
+        SCOPED_TRACE("luminaire " + std::to_string(i));
+        EXPECT_EQ(e.name, a.name);
+        EXPECT_EQ(e.file, a.file);
+        EXPECT_EQ(e.checksum, a.checksum);
+        EXPECT_EQ(bits(e.position), bits(a.position));
+        EXPECT_EQ(bits(e.axis_x), bits(a.axis_x));
+        EXPECT_EQ(bits(e.axis_y), bits(a.axis_y));
+        EXPECT_EQ(bits(e.axis_z), bits(a.axis_z));
+        EXPECT_EQ(bits(glm::dvec3(e.flux_scale, e.maintenance_factor, 0.0)),
+                  bits(glm::dvec3(a.flux_scale, a.maintenance_factor, 0.0)));
+        EXPECT_EQ(bits(e.color), bits(a.color));
+        EXPECT_EQ(e.opening.shape, a.opening.shape);
+        EXPECT_EQ(bits(glm::dvec3(e.opening.width, e.opening.length, e.opening.height)),
+                  bits(glm::dvec3(a.opening.width, a.opening.length, a.opening.height)));
+        EXPECT_EQ(e.web.type, a.web.type);
+        EXPECT_EQ(e.web.horizontal, a.web.horizontal);
+        EXPECT_EQ(e.web.vertical, a.web.vertical);
+        EXPECT_EQ(e.web.candela, a.web.candela);
+    }
     EXPECT_EQ(expected.emittance_unit, actual.emittance_unit);
 }
 
@@ -321,6 +344,30 @@ visdb::Scene make_scene() {
                            0.8,
                            0.25,
                            {0.0, 0.0, 1.0}});
+    return scene;
+}
+
+// A photometric scene: make_scene's in lm/m2 with a type B luminaire at survey coordinates.
+visdb::Scene make_luminaire_scene() {
+    visdb::Scene scene = make_scene();
+    scene.emittance_unit = "lm/m2";
+    visdb::Luminaire l;
+    l.name = "flood \"1\" ünïcode";
+    l.file = "photometry/flood.ies";
+    l.checksum = "00112233aabbccdd";
+    l.position = {kEast + 1.0 / 3.0, kNorth, 6.5};
+    l.axis_x = {0.0, 1.0, 0.0};
+    l.axis_y = {-1.0, 0.0, 0.0};
+    l.axis_z = {0.0, 0.0, 1.0};
+    l.flux_scale = 1.0 / 7.0;
+    l.maintenance_factor = 0.8;
+    l.color = {1.1, 0.9, 1e-9};
+    l.opening = {visdb::LuminousOpening::Shape::CylinderAlongX, 0.1, 1.2, 1.0 / 3.0};
+    l.web.type = visdb::PhotometricType::B;
+    l.web.horizontal = {-90.0, 0.0, 90.0};
+    l.web.vertical = {-45.0, 0.0, 1.0 / 3.0, 45.0};
+    l.web.candela = {0.0, 1.0, 2.0, 3.0, 4.0, 5e300, 6.0, 7.0, 8.0, 9.0, 10.0, 1e-300};
+    scene.luminaires.push_back(l);
     return scene;
 }
 
@@ -665,7 +712,8 @@ TEST(Store, Version1DatabaseMigratesKeepingItsScene) {
     visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(scene);
     // Turn the file back into what schema version 1 wrote
     RawDb(path).exec(
-        "DROP TABLE grids; UPDATE meta SET value = '1' WHERE key = 'schema_version'; "
+        "DROP TABLE grids; DROP TABLE luminaires; "
+        "UPDATE meta SET value = '1' WHERE key = 'schema_version'; "
         "PRAGMA user_version = 1");
     expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly); },
                        {path, "read-write once to migrate"});
@@ -675,6 +723,56 @@ TEST(Store, Version1DatabaseMigratesKeepingItsScene) {
     visdb::Scene with_grid = make_scene();
     store.add_import(with_grid);
     EXPECT_EQ(store.load_scene().grids.size(), 1u);
+}
+
+TEST(Store, Version2DatabaseMigratesAndTakesLuminaires) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("v2.visdb");
+    visdb::Scene scene = make_scene();
+    visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(scene);
+    // Turn the file back into what schema version 2 wrote
+    RawDb(path).exec(
+        "DROP TABLE luminaires; UPDATE meta SET value = '2' WHERE key = 'schema_version'; "
+        "PRAGMA user_version = 2");
+    expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly); },
+                       {path, "read-write once to migrate"});
+    auto store = visdb::Store::open(path, OpenMode::ReadWrite);
+    EXPECT_EQ(store.schema_version(), visdb::kSchemaVersion);
+    expect_same_scene(scene, store.load_scene());
+    // Its emitters are W/m2: photometric luminaires cannot join them
+    expect_store_error([&] { store.add_import(make_luminaire_scene()); },
+                       {path, "cannot be mixed"});
+}
+
+TEST(Store, LuminairesRoundTripBitExact) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("luminaires.visdb");
+    const visdb::Scene scene = make_luminaire_scene();
+    visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(scene);
+    expect_same_scene(scene, visdb::Store::open(path, OpenMode::ReadOnly).load_scene());
+}
+
+TEST(Store, CorruptLuminaireWebIsRejected) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("web.visdb");
+    visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(make_luminaire_scene());
+    const std::string name = make_luminaire_scene().luminaires[0].name;
+    RawDb(path).exec("UPDATE luminaires SET candela = substr(candela, 1, length(candela) - 8)");
+    expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly).load_scene(); },
+                       {path + ": corrupt luminaire '" + name + "'"});
+    // Angles out of order: the web is not what PhotometricWeb states
+    RawDb(path).exec(
+        "UPDATE luminaires SET candela = zeroblob(96), vertical = "
+        "X'000000000000F03F000000000000000000000000000008400000000000001040'");  // 1, 0, 3, 4
+    expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly).load_scene(); },
+                       {path + ": corrupt photometric web of luminaire '" + name + "'"});
+    // An invalid web is refused at import, nothing written
+    visdb::Scene bad = make_luminaire_scene();
+    bad.luminaires[0].web.candela[3] = -1.0;
+    const std::string other = dir.file("other.visdb");
+    auto store = visdb::Store::open(other, OpenMode::CreateOrOpen);
+    expect_store_error([&] { store.add_import(bad); }, {other, "invalid web"});
+    EXPECT_TRUE(store.load_scene().surfaces.empty());
 }
 
 TEST(Store, SchemaIsVersionedAndMarked) {

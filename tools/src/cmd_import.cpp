@@ -53,7 +53,7 @@ visdb::Scene read_models(const ImportArgs& a) {
     std::optional<convert::SceneFile> scene_file;
     if (!a.scene.empty()) {
         try {
-            scene_file = convert::read_scene_file(a.scene);
+            scene_file = convert::read_scene_file(a.scene, a.allow_outside_refs);
         } catch (const convert::ImportError& e) {
             bad_input(e.what());
         }

@@ -58,6 +58,14 @@ void print_info(const std::string& db) {
     for (const auto& g : scene.grids)
         std::cout << "  " << g.name << ": x " << g.min.x << ".." << g.max.x << ", y " << g.min.y
                   << ".." << g.max.y << ", z " << g.z << ", spacing " << g.spacing << " m\n";
+    std::cout << "luminaires (" << scene.luminaires.size() << "):\n";
+    for (const auto& l : scene.luminaires) {
+        std::cout << "  " << l.name << ": " << l.file << " at (" << l.position.x << " "
+                  << l.position.y << " " << l.position.z << "), nadir toward (" << -l.axis_z.x
+                  << " " << -l.axis_z.y << " " << -l.axis_z.z << "), " << l.flux() << " lm, "
+                  << l.web.max_candela() * l.scale() << " cd max, opening "
+                  << visdb::to_string(l.opening.shape) << "\n";
+    }
     const auto bakes = store.list_bakes();
     std::cout << "bakes (" << bakes.size() << "):\n";
     for (const auto& b : bakes) {

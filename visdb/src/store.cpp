@@ -167,6 +167,44 @@ CREATE TABLE grids(
     normal_z REAL NOT NULL
 );
 )sql"},
+    {2, R"sql(
+-- Luminaires placed by scene files: a photometric web (candela on a grid of angles, degrees,
+-- little-endian doubles; candela[h * vertical_count + v]) in a frame at a position (metres).
+-- web_type: 1 C, 2 B, 3 A (LM-63's codes); opening_shape: visdb::LuminousOpening::Shape.
+CREATE TABLE luminaires(
+    id                 INTEGER PRIMARY KEY,
+    name               TEXT NOT NULL,
+    file               TEXT NOT NULL,
+    checksum           TEXT NOT NULL,
+    position_x         REAL NOT NULL,
+    position_y         REAL NOT NULL,
+    position_z         REAL NOT NULL,
+    axis_x_x           REAL NOT NULL,
+    axis_x_y           REAL NOT NULL,
+    axis_x_z           REAL NOT NULL,
+    axis_y_x           REAL NOT NULL,
+    axis_y_y           REAL NOT NULL,
+    axis_y_z           REAL NOT NULL,
+    axis_z_x           REAL NOT NULL,
+    axis_z_y           REAL NOT NULL,
+    axis_z_z           REAL NOT NULL,
+    flux_scale         REAL NOT NULL,
+    maintenance_factor REAL NOT NULL,
+    color_r            REAL NOT NULL,
+    color_g            REAL NOT NULL,
+    color_b            REAL NOT NULL,
+    opening_shape      INTEGER NOT NULL,
+    opening_width      REAL NOT NULL,
+    opening_length     REAL NOT NULL,
+    opening_height     REAL NOT NULL,
+    web_type           INTEGER NOT NULL,
+    horizontal_count   INTEGER NOT NULL,
+    vertical_count     INTEGER NOT NULL,
+    horizontal         BLOB NOT NULL,
+    vertical           BLOB NOT NULL,
+    candela            BLOB NOT NULL
+);
+)sql"},
 };
 
 static_assert(std::size(kMigrations) == static_cast<std::size_t>(kSchemaVersion),
@@ -247,6 +285,43 @@ bool decode(std::span<const unsigned char> bytes, std::int64_t count,
         p += kElement;
     }
     return true;
+}
+
+std::vector<unsigned char> encode(const std::vector<double>& values) {
+    std::vector<unsigned char> out(values.size() * sizeof(double));
+    unsigned char* p = out.data();
+    for (const double v : values) {
+        put_le<double>(p, v);
+        p += sizeof(double);
+    }
+    return out;
+}
+
+bool decode(std::span<const unsigned char> bytes, std::int64_t count, std::vector<double>& out) {
+    constexpr std::size_t kElement = sizeof(double);
+    if (count < 0 || static_cast<std::uint64_t>(count) != bytes.size() / kElement ||
+        bytes.size() % kElement != 0) {
+        return false;
+    }
+    out.resize(static_cast<std::size_t>(count));
+    const unsigned char* p = bytes.data();
+    for (double& v : out) {
+        v = get_le<double>(p);
+        p += kElement;
+    }
+    return true;
+}
+
+// A web as PhotometricWeb states it: increasing angles, one candela >= 0 per pair.
+bool valid_web(const PhotometricWeb& w) {
+    const auto increasing = [](const std::vector<double>& a) {
+        return !a.empty() && std::is_sorted(a.begin(), a.end()) &&
+               std::adjacent_find(a.begin(), a.end()) == a.end();
+    };
+    return increasing(w.horizontal) && increasing(w.vertical) && w.vertical.size() >= 2 &&
+           w.candela.size() == w.horizontal.size() * w.vertical.size() &&
+           std::all_of(w.candela.begin(), w.candela.end(),
+                       [](double c) { return std::isfinite(c) && c >= 0.0; });
 }
 
 bool indices_below(const std::vector<glm::u32vec3>& triangles, std::size_t vertex_count) {
@@ -637,6 +712,86 @@ void create_database(const std::string& path) {
     remove_tmp();
 }
 
+constexpr const char* kLuminaireColumns =
+    "name, file, checksum, position_x, position_y, position_z, axis_x_x, axis_x_y, axis_x_z, "
+    "axis_y_x, axis_y_y, axis_y_z, axis_z_x, axis_z_y, axis_z_z, flux_scale, "
+    "maintenance_factor, color_r, color_g, color_b, opening_shape, opening_width, "
+    "opening_length, opening_height, web_type, horizontal_count, vertical_count, horizontal, "
+    "vertical, candela";
+
+// Appends the luminaires of the database to `scene`; a row that does not make a valid web or
+// frame is corrupt.
+void load_luminaires(const Connection& c, Scene& scene) {
+    Statement q(c, std::string("SELECT ") + kLuminaireColumns + " FROM luminaires ORDER BY id");
+    while (q.step()) {
+        Luminaire& l = scene.luminaires.emplace_back();
+        l.name = q.text(0);
+        l.file = q.text(1);
+        l.checksum = q.text(2);
+        const auto vec = [&q](int first) {
+            return glm::dvec3(q.real(first), q.real(first + 1), q.real(first + 2));
+        };
+        l.position = vec(3);
+        l.axis_x = vec(6);
+        l.axis_y = vec(9);
+        l.axis_z = vec(12);
+        l.flux_scale = q.real(15);
+        l.maintenance_factor = q.real(16);
+        l.color = vec(17);
+        const std::int64_t shape = q.int64(20);
+        l.opening.width = q.real(21);
+        l.opening.length = q.real(22);
+        l.opening.height = q.real(23);
+        const std::int64_t type = q.int64(24);
+        const bool ok =
+            shape >= 0 &&
+            shape <= static_cast<std::int64_t>(LuminousOpening::Shape::VerticalDiscFacingY) &&
+            type >= 1 && type <= 3 && decode(q.blob(27), q.int64(25), l.web.horizontal) &&
+            decode(q.blob(28), q.int64(26), l.web.vertical) &&
+            decode(q.blob(29), q.int64(25) * q.int64(26), l.web.candela);
+        if (!ok) c.fail("corrupt luminaire '" + l.name + "'");
+        l.opening.shape = static_cast<LuminousOpening::Shape>(shape);
+        l.web.type = static_cast<PhotometricType>(type);
+        if (!valid_web(l.web)) c.fail("corrupt photometric web of luminaire '" + l.name + "'");
+    }
+}
+
+void insert_luminaires(const Connection& c, const std::vector<Luminaire>& luminaires) {
+    Statement insert(c, std::string("INSERT INTO luminaires(") + kLuminaireColumns +
+                            ") VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, "
+                            "?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, "
+                            "?27, ?28, ?29, ?30)");
+    for (const Luminaire& l : luminaires) {
+        if (!valid_web(l.web)) c.fail("import: luminaire '" + l.name + "' has an invalid web");
+        const auto horizontal = encode(l.web.horizontal);
+        const auto vertical = encode(l.web.vertical);
+        const auto candela = encode(l.web.candela);
+        insert.bind(1, l.name);
+        insert.bind(2, l.file);
+        insert.bind(3, l.checksum);
+        for (glm::length_t i = 0; i < 3; ++i) {
+            insert.bind(4 + i, l.position[i]);
+            insert.bind(7 + i, l.axis_x[i]);
+            insert.bind(10 + i, l.axis_y[i]);
+            insert.bind(13 + i, l.axis_z[i]);
+            insert.bind(18 + i, l.color[i]);
+        }
+        insert.bind(16, l.flux_scale);
+        insert.bind(17, l.maintenance_factor);
+        insert.bind(21, static_cast<std::int64_t>(l.opening.shape));
+        insert.bind(22, l.opening.width);
+        insert.bind(23, l.opening.length);
+        insert.bind(24, l.opening.height);
+        insert.bind(25, static_cast<std::int64_t>(l.web.type));
+        insert.bind(26, static_cast<std::int64_t>(l.web.horizontal.size()));
+        insert.bind(27, static_cast<std::int64_t>(l.web.vertical.size()));
+        insert.bind_blob_static(28, horizontal);
+        insert.bind_blob_static(29, vertical);
+        insert.bind_blob_static(30, candela);
+        insert.run();
+    }
+}
+
 }  // namespace
 
 Store Store::open(const std::string& path, OpenMode mode) {
@@ -781,6 +936,7 @@ Scene Store::load_scene() const {
             g.normal = glm::dvec3(q.real(7), q.real(8), q.real(9));
         }
     }
+    load_luminaires(c, scene);
     {
         Statement q(c, "SELECT value FROM meta WHERE key = 'emittance_unit'");
         if (q.step()) scene.emittance_unit = q.text(0);
@@ -813,6 +969,7 @@ void Store::add_import(const Scene& imported, SameSource same_source) {
                "' is neither 'W/m2' nor 'lm/m2'");
     }
     const auto has_emitters = [](const Scene& scene) {
+        if (!scene.luminaires.empty()) return true;
         for (const Surface& s : scene.surfaces)
             if (scene.materials[s.material].is_emitter()) return true;
         return false;
@@ -833,7 +990,8 @@ void Store::add_import(const Scene& imported, SameSource same_source) {
                 {
                     Statement q(c,
                                 "SELECT 1 FROM materials WHERE emittance_r > 0 OR "
-                                "emittance_g > 0 OR emittance_b > 0 LIMIT 1");
+                                "emittance_g > 0 OR emittance_b > 0 UNION ALL "
+                                "SELECT 1 FROM luminaires LIMIT 1");
                     stored_emitters = q.step();
                 }
                 const bool new_emitters = has_emitters(imported);
@@ -956,6 +1114,7 @@ void Store::add_import(const Scene& imported, SameSource same_source) {
                 insert.run();
             }
         }
+        insert_luminaires(c, imported.luminaires);
         transaction.commit();
     } catch (const StoreError&) {
         throw;  // already names the file; the transaction was rolled back on the way out

@@ -54,6 +54,26 @@
 //   The rectangle becomes a surface of two triangles, front facing `normal`, with a material
 //   of reflectance 0, opacity 1 and the emittance (E = Φ / (width · height) · color).
 //
+//   [[luminaire]]        # luminaires from photometric files (implies photometric)
+//   file = "downlight.ies"      # required: .ies (IES LM-63) or .ldt (EULUMDAT), relative to the
+//                        # scene file's folder and inside it (unless --allow-outside-refs)
+//   name = "DL"          # unique among the luminaires; default the file's stem and the line
+//   position = [3.0, 2.0, 2.8]  # required: the photometric centre, metres (after the shift)
+//   rotation = [0, 30, 90]      # degrees about world x, then y, then z (R = Rz Ry Rx), taking
+//                        # the photometric frame (x = C0, z up, light toward -z) to the world
+//   target = [3.0, 2.0, 0.0]    # or: aim the nadir (γ = 0) at this point; the C0 axis then
+//                        # lies along world x projected (world y when aiming along x).
+//                        # Default: no rotation (a downlight hangs facing down).
+//   count = 4            # >= 1: a row of luminaires position + i·step, named "NAME 1".."NAME 4"
+//   step = [1.5, 0, 0]   # metres, required with count > 1
+//   flux_scale = 1.0     # > 0: multiplies every candela (another lamp, dimming)
+//   maintenance_factor = 0.8    # in (0, 1], default 1: multiplies every candela
+//   color = [1.0, 0.9, 0.8]     # relative colour, each >= 0, scaled to luminance 1
+//   opening = "point"    # file (default: the file's luminous opening) | point | rectangle |
+//   opening_size = [1.2, 0.3]   # disc; rectangle and disc need opening_size = [length, width]
+//                        # (metres, along the luminaire's x and y)
+//   A malformed photometric file is an ImportError naming that file, its line and field.
+//
 //   [[camera]]
 //   name = "entrance"    # required, unique among the scene's cameras
 //   position = [1, 1, 1.6]      # required, metres
@@ -169,6 +189,15 @@ struct SceneGrid {
     std::string to_string() const;
 };
 
+/// A [[luminaire]] (one of its `count`): the photometric file read and the frame resolved.
+struct SceneLuminaire {
+    std::size_t line = 0;
+    visdb::Luminaire luminaire;
+    std::string flux_report;  ///< the file's flux against its lamps (PhotometricFile::flux_report)
+
+    std::string to_string() const;
+};
+
 /// A parsed and validated scene file. Sections keep file order; each carries the line of its
 /// table header for messages.
 struct SceneFile {
@@ -187,8 +216,9 @@ struct SceneFile {
     std::vector<SceneCamera> cameras;
     std::vector<SceneExclude> excludes;
     std::vector<SceneGrid> grids;
+    std::vector<SceneLuminaire> luminaires;  ///< [[luminaire]], each of a count on its own
 
-    /// True when some rule or rectangle gives a flux.
+    /// True when some rule or rectangle gives a flux, or the file places luminaires.
     bool uses_flux() const;
     /// `photometric` as written, else uses_flux().
     bool is_photometric() const;
@@ -196,10 +226,11 @@ struct SceneFile {
     std::string to_string() const;
 };
 
-/// Reads and validates a scene file (format above). Throws ImportError "FILE:LINE: message"
-/// on a missing file, a TOML syntax error, an unknown key (named with the allowed keys), a
-/// wrong type or an out-of-range value.
-SceneFile read_scene_file(const std::filesystem::path& path);
+/// Reads and validates a scene file (format above) and the photometric files it names. Throws
+/// ImportError "FILE:LINE: message" on a missing file, a TOML syntax error, an unknown key
+/// (named with the allowed keys), a wrong type or an out-of-range value, a photometric file
+/// outside the scene file's folder (unless `allow_outside_refs`), or a malformed one.
+SceneFile read_scene_file(const std::filesystem::path& path, bool allow_outside_refs = false);
 
 /// Copies the settings the scene file sets (unit, up, origin_shift, weld_tolerance) into
 /// `options`, leaving the others as they are. The command line applies its own afterwards.
@@ -213,18 +244,20 @@ struct SceneFileReport {
     std::size_t emitters_added = 0;        ///< rectangles + luminaires lit by object [[emitter]]s
     std::size_t cameras = 0;               ///< cameras added
     std::size_t grids = 0;                 ///< grids added
+    std::size_t luminaires = 0;            ///< luminaires added
 
     std::string to_string() const;
 };
 
 /// Applies the scene file to the merged, healed scene (metres, Z up, origin shift applied):
 /// resolves grids (against the surfaces before exclusions), removes excluded surfaces, applies
-/// rules and object emitters in file order, adds emitter rectangles, cameras and grids, and
+/// rules and object emitters in file order, adds emitter rectangles, cameras, grids and
+/// luminaires (a note each with its flux against its lamps), and
 /// sets `emittance_unit` to "lm/m2" when photometric ("W/m2" when `photometric = false`).
 /// Appends the scene file as a visdb::Source (format "scene", unit "m", up "z", its report);
 /// rectangles belong to that source. Throws ImportError "FILE:LINE: message" for a rule that
-/// cannot apply (a flux luminaire of zero area, every surface excluded, a duplicate camera or
-/// grid name, a grid margin that leaves nothing); the scene is then unchanged.
+/// cannot apply (a flux luminaire of zero area, every surface excluded, a duplicate camera,
+/// grid or luminaire name, a grid margin that leaves nothing); the scene is then unchanged.
 SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene);
 
 }  // namespace abrad::convert

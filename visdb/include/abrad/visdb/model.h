@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "abrad/visdb/bake_stats.h"
+#include "abrad/visdb/photometry.h"
 
 namespace abrad::visdb {
 
@@ -135,6 +136,39 @@ struct CalculationGrid {
     glm::dvec3 normal{0.0, 0.0, 1.0};
 };
 
+/// A luminaire placed in the scene: a photometric web (candela, in the luminaire's
+/// photometric frame, see photometry.h) at a position with an orientation. A point source at
+/// `position` unless its opening is large against the distance to what it lights.
+struct Luminaire {
+    std::string name;      ///< unique among the scene's luminaires
+    std::string file;      ///< the photometric file as the scene file resolved it
+    std::string checksum;  ///< FNV-1a 64 of the photometric file's bytes, 16 hex digits
+    PhotometricWeb web;    ///< as the file gives it (its multipliers applied)
+    LuminousOpening opening;
+    glm::dvec3 position{0.0};  ///< the photometric centre, metres
+    /// The luminaire's photometric axes in the world: an orthonormal right-handed frame (x the
+    /// length axis, C0; z up, away from the light of a downlight).
+    glm::dvec3 axis_x{1.0, 0.0, 0.0};
+    glm::dvec3 axis_y{0.0, 1.0, 0.0};
+    glm::dvec3 axis_z{0.0, 0.0, 1.0};
+    double flux_scale = 1.0;          ///< > 0: multiplies every candela
+    double maintenance_factor = 1.0;  ///< in (0, 1]: multiplies every candela
+    Rgb color{1.0, 1.0, 1.0};         ///< relative colour of luminance 1
+
+    /// A world direction in the photometric frame.
+    glm::dvec3 to_local(const glm::dvec3& d) const {
+        return {glm::dot(d, axis_x), glm::dot(d, axis_y), glm::dot(d, axis_z)};
+    }
+    /// The web's factor: flux_scale · maintenance_factor.
+    double scale() const { return flux_scale * maintenance_factor; }
+    /// Intensity toward the unit world direction `d`, candela per channel.
+    Rgb intensity(const glm::dvec3& d) const {
+        return web.intensity(to_local(d)) * scale() * color;
+    }
+    /// Total luminous flux, lm (the web's, scaled).
+    double flux() const { return web.flux() * scale(); }
+};
+
 /// One imported file: where it came from and what the import did to it.
 struct Source {
     std::string path;      ///< the path as given on the command line
@@ -154,6 +188,7 @@ struct Scene {
     std::vector<Surface> surfaces;
     std::vector<Camera> cameras;
     std::vector<CalculationGrid> grids;
+    std::vector<Luminaire> luminaires;  ///< from scene files' [[luminaire]] tables
     /// Unit of every material's emittance: "W/m2" (radiometric, irradiance in W/m²) or
     /// "lm/m2" (photometric, illuminance in lux).
     std::string emittance_unit = "W/m2";
