@@ -160,7 +160,7 @@ struct ExportArgs {
     bool ascii = false;
     std::string up;                    ///< y|z; empty: the format's convention (obj y, ply z)
     std::string positions = "double";  ///< ply: double|float
-    std::optional<double> simplify;  ///< export a light mesh: simplify_mesh's error bound
+    std::optional<double> simplify;    ///< export a light mesh: simplify_mesh's error bound
     ViewArgs view;
 };
 /// Exports a bake (or the model, pov-reference) in `a.format`, or the format the output's
