@@ -703,16 +703,23 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
     };
     if (options.bvh && !options.only) {
         // Large occluders first: the walls and slabs close pixels before the clutter behind
-        // them is walked
+        // them is walked. They go nearest first too, so that a wall of the next room finds the
+        // pixels this room's walls closed and is not rasterized at all
         const std::span<const std::uint32_t> first = options.occluders_first;
+        thread_local std::vector<std::pair<double, std::uint32_t>> nearest_first;
+        nearest_first.clear();
         for (const std::uint32_t id : first) {
             const Patch& pt = patches[id];
-            const auto ahead = [&](const glm::dvec3& x) {
-                return glm::dot(x - frame.origin, frame.n) > 0.0;
-            };
-            if (id != options.exclude && (ahead(pt.p[0]) || ahead(pt.p[1]) || ahead(pt.p[2])))
-                rasterize(id);
+            double nearest = std::numeric_limits<double>::infinity();
+            bool ahead = false;
+            for (const glm::dvec3& x : pt.p) {
+                ahead = ahead || glm::dot(x - frame.origin, frame.n) > 0.0;
+                nearest = std::min(nearest, glm::dot(x - frame.origin, x - frame.origin));
+            }
+            if (id != options.exclude && ahead) nearest_first.emplace_back(nearest, id);
         }
+        std::sort(nearest_first.begin(), nearest_first.end());
+        for (const auto& [d2, id] : nearest_first) rasterize(id);
         options.bvh->front_to_back(
             frame.origin,
             [&](const Box& box) {
