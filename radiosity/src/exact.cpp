@@ -209,19 +209,47 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
     pieces[0].weight = 1.0;
     bound(pieces[0]);
 
+    // The occluders' shadows first, then subtracted largest first: a large blocker (a table
+    // top over a point under it) removes the light in one cut, and the small ones after it
+    // mostly miss what is left, instead of each cutting the light into more pieces. The
+    // visible part is the same whatever the order (to rounding).
+    struct Shadow {
+        Poly2 poly;
+        double area2;
+        std::uint32_t index;
+    };
+    thread_local std::vector<Shadow> shadows;
+    shadows.clear();
+    {
+        Shadow s;
+        for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
+            if (stats) ++stats->occluders_tested;
+            if (!occluder_shadow(lp, *occluders[oi], pieces[0].lo, pieces[0].hi, s.poly)) continue;
+            s.area2 = signed_area2(s.poly);
+            s.index = static_cast<std::uint32_t>(oi);
+            shadows.push_back(s);
+        }
+    }
+    std::sort(shadows.begin(), shadows.end(), [](const Shadow& a, const Shadow& b) {
+        return a.area2 > b.area2 || (a.area2 == b.area2 && a.index < b.index);
+    });
+
     std::vector<Piece> cut;
-    Poly2 shadow;
     glm::dvec2 lo = pieces[0].lo, hi = pieces[0].hi;  // box of what is left of the light
-    for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
-        const Patch* occ = occluders[oi];
-        if (stats) ++stats->occluders_tested;
-        if (!occluder_shadow(lp, *occ, lo, hi, shadow)) continue;
+    for (const Shadow& s : shadows) {
+        glm::dvec2 slo = s.poly[0], shi = s.poly[0];
+        for (const auto& v : s.poly) {
+            slo = glm::min(slo, v);
+            shi = glm::max(shi, v);
+        }
+        if (shi.x <= lo.x || slo.x >= hi.x || shi.y <= lo.y || slo.y >= hi.y) continue;
+        const Patch* occ = occluders[s.index];
         const double transmit = 1.0 - std::clamp(occ->opacity, 0.0, 1.0);
-        const bool touched = subtract_shadow(pieces, shadow, transmit, cut);
+        const bool touched = subtract_shadow(pieces, s.poly, transmit, cut);
         if (touched || !cut.empty()) bound_all(pieces, lo, hi);
         if (touched && stats) {
             ++stats->occluders_projected;
-            if (stats->touched) stats->touched->push_back(static_cast<std::uint32_t>(oi));
+            if (stats->touched) stats->touched->push_back(s.index);
         }
         if (pieces.empty()) break;
     }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <glm/geometric.hpp>
 #include <numbers>
+#include <random>
 
 #include "analytic.h"
 
@@ -87,6 +88,50 @@ TEST(ExactShading, StackedOccluders) {
     const double e2 = clipped(o, -9, 9, -9, 9) - 0.5 * clipped(o, -0.5, -0.1, -0.4, 0.4) -
                       0.25 * clipped(o, 0.1, 0.4, -0.4, 0.4);
     EXPECT_NEAR(visible(o, {0, 0, 1}, light, two), e2, 1e-12);
+}
+
+// Shadows are subtracted largest first, whatever the order the occluders come in: two
+// overlapping translucent squares (the small one listed first) let (1 - α1)(1 - α2) through
+// their common shadow, and a field of small opaque squares under a large translucent one,
+// shuffled, gives the same form factor in every order.
+TEST(ExactShading, OccluderOrderDoesNotMatter) {
+    const auto light = light_square();
+    const glm::dvec3 o(0, 0, 0);
+    // From o, a square [a, b]² at height h shadows [2a/h, 2b/h]² on the light's plane (z = 2)
+    std::vector<Patch> pair;
+    add_quad(pair, {-0.05, -0.05, 1}, {-0.05, 0.1, 1}, {0.1, 0.1, 1}, {0.1, -0.05, 1}, 0.3);
+    add_quad(pair, {-0.15, -0.15, 1}, {-0.15, 0.05, 1}, {0.05, 0.05, 1}, {0.05, -0.15, 1}, 0.6);
+    const double s_small = clipped(o, -0.1, 0.2, -0.1, 0.2);
+    const double s_big = clipped(o, -0.3, 0.1, -0.3, 0.1);
+    const double s_both = clipped(o, -0.1, 0.1, -0.1, 0.1);
+    const double expected = clipped(o, -9, 9, -9, 9) - 0.3 * s_small - 0.6 * s_big + 0.18 * s_both;
+    EXPECT_NEAR(visible(o, {0, 0, 1}, light, pair), expected, 1e-12);
+    std::swap(pair[0], pair[2]);
+    std::swap(pair[1], pair[3]);
+    EXPECT_NEAR(visible(o, {0, 0, 1}, light, pair), expected, 1e-12);
+
+    // Forty small opaque squares (disjoint shadows) at height 1.5, then a large translucent
+    // one at height 1 over half of them
+    std::vector<Patch> field;
+    double blocked = 0.0;
+    for (int i = 0; i < 8; ++i)
+        for (int j = 0; j < 5; ++j) {
+            const double a = -0.35 + 0.09 * i, b = -0.3 + 0.12 * j, w = 0.04;
+            add_quad(field, {a, b, 1.5}, {a, b + w, 1.5}, {a + w, b + w, 1.5}, {a + w, b, 1.5});
+            const double k = 2.0 / 1.5;
+            blocked += clipped(o, k * a, k * (a + w), k * b, k * (b + w));
+        }
+    add_quad(field, {-0.2, -0.2, 1}, {-0.2, 0.0, 1}, {0.0, 0.0, 1}, {0.0, -0.2, 1}, 0.5);
+    const double reference = visible(o, {0, 0, 1}, light, field);
+    EXPECT_LT(reference, clipped(o, -9, 9, -9, 9) - blocked);  // the large one takes its share
+    for (unsigned seed = 1; seed <= 5; ++seed) {
+        std::vector<Patch> shuffled = field;
+        std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(seed));
+        EXPECT_NEAR(visible(o, {0, 0, 1}, light, shuffled), reference, 1e-12) << "seed " << seed;
+    }
+    // Without the large one: the closed form of forty disjoint shadows
+    field.resize(field.size() - 2);
+    EXPECT_NEAR(visible(o, {0, 0, 1}, light, field), clipped(o, -9, 9, -9, 9) - blocked, 1e-12);
 }
 
 // Tilted receivers, including a light cut by the receiver's horizon, against midpoint

@@ -65,7 +65,9 @@ Poly clip_polygon(const Poly& in, Dist&& dist) {
     Poly out;
     const std::size_t n = in.size();
     if (n == 0) return out;
-    std::array<double, Poly::kCapacity> d{};
+    // Only [0, n) is written and read: not cleared (this is the hemicube's innermost loop)
+    // NOLINTNEXTLINE(cppcoreguidelines-pro-type-member-init)
+    std::array<double, Poly::kCapacity> d;
     bool all_in = true, all_out = true;
     for (std::size_t i = 0; i < n; ++i) {
         d[i] = dist(in[i]);
