@@ -42,6 +42,17 @@ bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
     return lo < -eps && hi > eps;
 }
 
+// True when the light's hemicube, at its centroid, cannot see the front of receiver r (the
+// centroid is on or behind r's plane) though part of the light is in front of r: the shot
+// then says nothing of r (the side of a box that only the far part of a ceiling panel lights).
+bool unseen_from_centroid(const Patch& light, const Patch& r) {
+    const glm::dvec3 n = cross_normal(r);
+    if (glm::dot(centroid(light) - r.p[0], n) > 0.0) return false;
+    for (const glm::dvec3& p : light.p)
+        if (glm::dot(p - r.p[0], n) > 0.0) return true;
+    return false;
+}
+
 // A shadow segment of one light on receiver triangle j, with the light's largest unoccluded
 // irradiance on the receiver and the segment (the most it can change the light there: the
 // jump the segment may mark).
@@ -143,10 +154,12 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                           const EmitterEdges& emitter, OneLight& out) {
     const Patch& light = g.patches[l];
     const double emittance = visdb::channel_mean(g.emittance[l]);
-    // The regions the light's hemicube reached: the others get no light, so no shadow edge
+    // The regions the light's hemicube reached, or could not see: the others get no light, so
+    // no shadow edge
     std::vector<char> reached(regions.planar.size(), 0);
     for (const std::uint32_t j : receivers)
-        if (shot.form_factor[j] > 0.0) reached[regions.of_triangle[j]] = 1;
+        if (shot.form_factor[j] > 0.0 || unseen_from_centroid(light, g.patches[j]))
+            reached[regions.of_triangle[j]] = 1;
     const glm::dvec3 normal = unit_normal(light);
     std::mutex accumulate;
     tbb::parallel_for(
@@ -322,7 +335,9 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
         lit.insert(lit.end(), one.segments.begin(), one.segments.end());
         if (options.dm)
             for (const std::uint32_t j : one.near)
-                if (visdb::any_positive(one.triangle[j])) shots.lights_of_triangle[j].push_back(l);
+                if (visdb::any_positive(one.triangle[j]) ||
+                    unseen_from_centroid(g.patches[l], g.patches[j]))
+                    shots.lights_of_triangle[j].push_back(l);
         shoot_stats += one.shoot;
         exact_stats += one.exact;
         shadow_stats += one.shadow;
