@@ -23,13 +23,31 @@ namespace abrad::radiosity {
 
 namespace {
 
-// False when `c` cannot hide any part of `light` from any part of `receiver`: the six
-// corners lie on one closed side of c's plane, so no segment between them crosses it (a
-// floor cannot shadow a wall standing on it; a wall cannot shadow the floor).
+// True when the corners of `c` lie on the closed back side of the plane through `on` with
+// normal `n` (unit), within a relative 1e-9 of the span of c and `on` along n.
+bool wholly_behind(const Patch& c, const glm::dvec3& on, const glm::dvec3& n) {
+    double lo = 0.0, hi = 0.0;
+    for (const glm::dvec3& p : c.p) {
+        const double d = glm::dot(p - on, n);
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+    }
+    return hi <= 1e-9 * (hi - lo) + 1e-12;
+}
+
+// False when `c` cannot hide any part of `light` from any part of `receiver`:
+// - the six corners lie on one closed side of c's plane, so no segment between them crosses
+//   it (a floor cannot shadow a wall standing on it; a wall cannot shadow the floor);
+// - c lies wholly behind the light's plane or the receiver's: a segment that carries light
+//   runs in front of both but for its ends (the other triangles of a closed emitter, all
+//   behind each of its triangles' planes, do not shadow it).
 bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
     const glm::dvec3 cr = cross_normal(c);
     const double len = glm::length(cr);
     if (!(len > 0.0)) return false;
+    if (wholly_behind(c, light.p[0], unit_normal(light)) ||
+        wholly_behind(c, receiver.p[0], unit_normal(receiver)))
+        return false;
     const glm::dvec3 n = cr / len;
     double lo = 0.0, hi = 0.0;
     for (const Patch* q : {&light, &receiver})
