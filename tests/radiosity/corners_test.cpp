@@ -142,31 +142,23 @@ std::vector<ProbePoint> room_edges() {
     return p;
 }
 
-TEST(Corners, RoomCornersUnderACeilingLightGetTheClosedForm) {
-    const visdb::Scene scene = room(kCeilingLight);
-    const Expected exact = [](const dvec3& x, const dvec3& n) {
-        return kGreen * ff_axis_rect(x, n, kCeilingLight);
+// The room lit by `light` alone, with and without DM: every vertex has its closed form in a
+// convex room.
+void check_room(const AxisRect& light) {
+    const visdb::Scene scene = room(light);
+    const Expected exact = [&](const dvec3& x, const dvec3& n) {
+        return kGreen * ff_axis_rect(x, n, light);
     };
     for (bool dm : {false, true}) {
         const visdb::Bake b = bake(scene, direct(dm));
-        // Every vertex has its closed form in a convex room
         EXPECT_EQ(check_vertices(scene, b, exact, room_edges(), dm ? "DM" : "no DM"),
                   static_cast<int>(b.mesh.positions.size()));
     }
 }
 
-TEST(Corners, WallFeetUnderAWallLightGetTheClosedForm) {
-    const visdb::Scene scene = room(kWallLight);
-    const Expected exact = [](const dvec3& x, const dvec3& n) {
-        return kGreen * ff_axis_rect(x, n, kWallLight);
-    };
-    for (bool dm : {false, true}) {
-        const visdb::Bake b = bake(scene, direct(dm));
-        // Every vertex has its closed form in a convex room
-        EXPECT_EQ(check_vertices(scene, b, exact, room_edges(), dm ? "DM" : "no DM"),
-                  static_cast<int>(b.mesh.positions.size()));
-    }
-}
+TEST(Corners, RoomCornersUnderACeilingLightGetTheClosedForm) { check_room(kCeilingLight); }
+
+TEST(Corners, WallFeetUnderAWallLightGetTheClosedForm) { check_room(kWallLight); }
 
 // A box [x0,x1]×[y0,y1] standing on a horizontal plane.
 struct Footprint {

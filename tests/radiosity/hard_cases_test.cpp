@@ -426,7 +426,6 @@ TEST(HardCases, AClosedEmitterDoesNotShadowItself) {
     visdb::Scene scene;
     scene.materials.push_back({"wall", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
     scene.materials.push_back({"light", {0, 0, 0}, {10, 20, 5}, 1.0});
-    const glm::dvec3 mid(0.0, 0.0, 1.5);
     const glm::dvec3 c[4] = {{-1.5, -1.5, 0}, {1.5, -1.5, 0}, {1.5, 1.5, 0}, {-1.5, 1.5, 0}};
     scene.surfaces.push_back(grid("floor", 0, -1.5, 1.5, -1.5, 1.5, 0.0, 8, true));
     scene.surfaces.push_back(grid("ceiling", 0, -1.5, 1.5, -1.5, 1.5, 3.0, 8, false));
