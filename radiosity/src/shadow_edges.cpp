@@ -691,9 +691,14 @@ std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, co
     }
     c.region[3] = {nl, glm::dot(nl, light.p[0])};
 
-    // Occluders: without the receiver and the light; the opaque ones also cut
+    // Occluders: without the receiver, the light and what lies wholly behind the light's
+    // plane (a segment from the light to the receiver runs in front of it: the other
+    // triangles of a closed emitter hide nothing of it); the opaque ones also cut
+    const Affine& light_plane = c.region[3];
     for (const Patch* t : occluders) {
         if (t == nullptr || same_triangle(*t, receiver) || same_triangle(*t, light)) continue;
+        if (std::max({light_plane(t->p[0]), light_plane(t->p[1]), light_plane(t->p[2])}) <= c.tol)
+            continue;
         const std::size_t idx = c.occ.size();
         c.occ.push_back(t);
         if (t->opacity < kOpaque) continue;

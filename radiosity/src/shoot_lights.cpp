@@ -23,13 +23,31 @@ namespace abrad::radiosity {
 
 namespace {
 
-// False when `c` cannot hide any part of `light` from any part of `receiver`: the six
-// corners lie on one closed side of c's plane, so no segment between them crosses it (a
-// floor cannot shadow a wall standing on it; a wall cannot shadow the floor).
+// True when the corners of `c` lie on the closed back side of the plane through `on` with
+// normal `n` (unit), within a relative 1e-9 of the span of c and `on` along n.
+bool wholly_behind(const Patch& c, const glm::dvec3& on, const glm::dvec3& n) {
+    double lo = 0.0, hi = 0.0;
+    for (const glm::dvec3& p : c.p) {
+        const double d = glm::dot(p - on, n);
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+    }
+    return hi <= 1e-9 * (hi - lo) + 1e-12;
+}
+
+// False when `c` cannot hide any part of `light` from any part of `receiver`:
+// - the six corners lie on one closed side of c's plane, so no segment between them crosses
+//   it (a floor cannot shadow a wall standing on it; a wall cannot shadow the floor);
+// - c lies wholly behind the light's plane or the receiver's: a segment that carries light
+//   runs in front of both but for its ends (the other triangles of a closed emitter, all
+//   behind each of its triangles' planes, do not shadow it).
 bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
     const glm::dvec3 cr = cross_normal(c);
     const double len = glm::length(cr);
     if (!(len > 0.0)) return false;
+    if (wholly_behind(c, light.p[0], unit_normal(light)) ||
+        wholly_behind(c, receiver.p[0], unit_normal(receiver)))
+        return false;
     const glm::dvec3 n = cr / len;
     double lo = 0.0, hi = 0.0;
     for (const Patch* q : {&light, &receiver})
@@ -40,6 +58,17 @@ bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
         }
     const double eps = 1e-9 * (hi - lo) + 1e-12;
     return lo < -eps && hi > eps;
+}
+
+// True when the light's hemicube, at its centroid, cannot see the front of receiver r (the
+// centroid is on or behind r's plane) though part of the light is in front of r: the shot
+// then says nothing of r (the side of a box that only the far part of a ceiling panel lights).
+bool unseen_from_centroid(const Patch& light, const Patch& r) {
+    const glm::dvec3 n = cross_normal(r);
+    if (glm::dot(centroid(light) - r.p[0], n) > 0.0) return false;
+    for (const glm::dvec3& p : light.p)
+        if (glm::dot(p - r.p[0], n) > 0.0) return true;
+    return false;
 }
 
 // A shadow segment of one light on receiver triangle j, with the light's largest unoccluded
@@ -143,10 +172,12 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                           const EmitterEdges& emitter, OneLight& out) {
     const Patch& light = g.patches[l];
     const double emittance = visdb::channel_mean(g.emittance[l]);
-    // The regions the light's hemicube reached: the others get no light, so no shadow edge
+    // The regions the light's hemicube reached, or could not see: the others get no light, so
+    // no shadow edge
     std::vector<char> reached(regions.planar.size(), 0);
     for (const std::uint32_t j : receivers)
-        if (shot.form_factor[j] > 0.0) reached[regions.of_triangle[j]] = 1;
+        if (shot.form_factor[j] > 0.0 || unseen_from_centroid(light, g.patches[j]))
+            reached[regions.of_triangle[j]] = 1;
     const glm::dvec3 normal = unit_normal(light);
     std::mutex accumulate;
     tbb::parallel_for(
@@ -322,7 +353,9 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
         lit.insert(lit.end(), one.segments.begin(), one.segments.end());
         if (options.dm)
             for (const std::uint32_t j : one.near)
-                if (visdb::any_positive(one.triangle[j])) shots.lights_of_triangle[j].push_back(l);
+                if (visdb::any_positive(one.triangle[j]) ||
+                    unseen_from_centroid(g.patches[l], g.patches[j]))
+                    shots.lights_of_triangle[j].push_back(l);
         shoot_stats += one.shoot;
         exact_stats += one.exact;
         shadow_stats += one.shadow;

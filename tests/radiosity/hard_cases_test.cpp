@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <glm/geometric.hpp>
 #include <numbers>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "abrad/radiosity/bake.h"
@@ -19,6 +21,7 @@
 #include "abrad/radiosity/hemicube.h"
 #include "abrad/radiosity/shoot.h"
 #include "analytic.h"
+#include "cie171.h"
 #include "scenes.h"
 
 namespace abrad::radiosity {
@@ -378,6 +381,91 @@ TEST(HardCases, ReflectanceCloseToOneInAClosedBoxConservesEnergy) {
     EXPECT_NEAR(area, 20.0, 1e-9);
     EXPECT_LT(sum / area, 1.05 * kGreen * 1.0 / (20.0 * (1.0 - 0.99)));
     EXPECT_GT(sum / area, 0.0);
+}
+
+// A sphere of radius r around c: the icosahedron split once (80 triangles), fronts outside.
+visdb::Surface icosphere(const std::string& name, std::uint32_t material, const glm::dvec3& c,
+                         double r) {
+    const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+    std::vector<glm::dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                                 {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                                 {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    std::vector<glm::uvec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+    std::vector<glm::uvec3> split;
+    for (const glm::uvec3& tri : f) {
+        std::uint32_t m[3];
+        for (int k = 0; k < 3; ++k) {
+            m[k] = static_cast<std::uint32_t>(v.size());
+            v.push_back(0.5 * (v[tri[k]] + v[tri[(k + 1) % 3]]));  // shared midpoints repeat:
+        }                                                          // same position, welded
+        split.push_back({tri[0], m[0], m[2]});
+        split.push_back({tri[1], m[1], m[0]});
+        split.push_back({tri[2], m[2], m[1]});
+        split.push_back({m[0], m[1], m[2]});
+    }
+    for (glm::uvec3& tri : split)  // fronts outside
+        if (glm::dot(glm::cross(v[tri.y] - v[tri.x], v[tri.z] - v[tri.x]), v[tri.x]) < 0.0)
+            std::swap(tri.y, tri.z);
+    visdb::Surface s;
+    s.name = name;
+    s.material = material;
+    for (const glm::dvec3& p : v) s.mesh.positions.push_back(c + r * glm::normalize(p));
+    s.mesh.triangles = split;
+    return s;
+}
+
+// Issue 18: an 80-triangle spherical luminaire in an empty cube cast thousands of shadow
+// segments on the walls (the other triangles of the sphere, behind each light triangle's
+// plane, were taken for occluders). A convex emitter hides nothing of itself: every triangle
+// whose plane a wall point is in front of is wholly visible from it, so each wall vertex gets
+// the sum of those triangles' Lambert form factors, and DM adds no shadow edge.
+TEST(HardCases, AClosedEmitterDoesNotShadowItself) {
+    visdb::Scene scene;
+    scene.materials.push_back({"wall", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
+    scene.materials.push_back({"light", {0, 0, 0}, {10, 20, 5}, 1.0});
+    const glm::dvec3 c[4] = {{-1.5, -1.5, 0}, {1.5, -1.5, 0}, {1.5, 1.5, 0}, {-1.5, 1.5, 0}};
+    scene.surfaces.push_back(grid("floor", 0, -1.5, 1.5, -1.5, 1.5, 0.0, 8, true));
+    scene.surfaces.push_back(grid("ceiling", 0, -1.5, 1.5, -1.5, 1.5, 3.0, 8, false));
+    for (int k = 0; k < 4; ++k)
+        scene.surfaces.push_back(quad_grid("wall" + std::to_string(k), 0, c[(k + 1) % 4],
+                                           c[k] - c[(k + 1) % 4], {0, 0, 3}, 8));
+    const visdb::Surface sphere = icosphere("sphere", 1, {0.2, -0.1, 1.7}, 0.3);
+    scene.surfaces.push_back(sphere);
+    std::vector<std::vector<glm::dvec3>> faces;
+    for (const glm::uvec3& tri : sphere.mesh.triangles)
+        faces.push_back({sphere.mesh.positions[tri.x], sphere.mesh.positions[tri.y],
+                         sphere.mesh.positions[tri.z]});
+    const auto exact = [&](const glm::dvec3& x, const glm::dvec3& n) {
+        double f = 0.0;
+        for (const auto& p : faces)
+            if (glm::dot(x - p[0], glm::cross(p[1] - p[0], p[2] - p[0])) > 0.0)
+                f += cie171::lambert_ff(x, n, p);
+        return kGreen * f;
+    };
+    BakeOptions o = direct();  // DM on, vertex lights: the defaults
+    const visdb::Bake b = bake(scene, o);
+    expect_sane(b);
+    const visdb::DiscontinuityStats& dm = b.statistics.dm.value();
+    std::printf("closed emitter: %llu shadow segments, %llu -> %llu triangles\n",
+                static_cast<unsigned long long>(dm.segments),
+                static_cast<unsigned long long>(dm.triangles_before),
+                static_cast<unsigned long long>(b.statistics.triangles));
+    EXPECT_LE(dm.segments, 10u);
+    int n = 0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        if (b.mesh.triangle_surface[t] > 5) continue;  // the room, not the sphere
+        for (int k = 0; k < 3; ++k, ++n) {
+            const auto v = b.mesh.triangles[t][k];
+            const glm::dvec3 x = b.mesh.positions[v];
+            ASSERT_NEAR(b.mesh.irradiance[v].y, exact(x, glm::dvec3(b.mesh.normals[v])),
+                        1e-5 * kGreen)
+                << "at " << x.x << ", " << x.y << ", " << x.z;
+        }
+    }
+    EXPECT_GE(n, 6 * 128 * 3);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -127,6 +127,25 @@ TEST(Interreflection, ConvergedReflectedPartOfAClosedRoomWithinHalfAPercent) {
     }
 }
 
+// Issue 18: with --ambient off, the converged answer is what was shot. The stop rule measures
+// what is still to come against the reflected light (not against the emitted power, which at
+// ρ = 0.05 left the reflected part 7 % short): within --converge of Φρ/(A(1 − ρ)) at every ρ,
+// beside the rounding of the hemicubes (the direct part taken out as above).
+TEST(Interreflection, AmbientOffStopsWithinConvergeOfTheClosedFormAtAnyRho) {
+    const double direct = 10.0 / 80.0;
+    const double direct_mean = mean_irradiance(bake(room({0.5, 0.5, 0.5, 0.5}), quick(0)));
+    for (const double rho : {0.05, 0.2, 0.5, 0.95}) {
+        BakeOptions o = quick(-1);
+        o.ambient = false;
+        const visdb::Bake b = bake(room({rho, rho, rho, rho}), o);
+        const double expected = direct * rho / (1.0 - rho);
+        const double reflected = mean_irradiance(b) - direct_mean;
+        std::printf("ambient off, rho %.2f: reflected %.6f, closed form %.6f, error %+.3f%%\n", rho,
+                    reflected, expected, 100.0 * (reflected / expected - 1.0));
+        EXPECT_NEAR(reflected, expected, (o.converge + 0.003) * expected) << "rho " << rho;
+    }
+}
+
 TEST(Interreflection, BounceByBounceInAClosedRoom) {
     // In a closed room of uniform ρ, bounce k carries Φρ^k: after N bounces the mean is
     // Φ/A · (1 − ρ^(N+1)) / (1 − ρ). The reflected part is compared on its own: the exported

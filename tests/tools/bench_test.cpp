@@ -7,12 +7,16 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <glm/geometric.hpp>
+#include <map>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "abrad/tools/floor_gen.h"
 #include "temp_dir.h"
@@ -103,6 +107,90 @@ TEST(Bench, QuickRunWritesCsvAndSummaryWithRealValues) {
     text << md.rdbuf();
     EXPECT_NE(text.str().find("Pareto-best settings"), std::string::npos);
     EXPECT_NE(text.str().find("## Scaling on generated floors"), std::string::npos);
+}
+
+// The uniform baseline of the mesh trade-off: a 2 x 2 m floor of 2 x 2 cells and a light,
+// split to 100 triangles. Longest-edge bisection of right isosceles triangles keeps them right
+// isosceles: areas A or A/2, the floor's area and facing kept, no T-vertex (the edges with
+// one triangle are the floor's outline, 8 m), the light untouched.
+TEST(Bench, UniformSubdivisionReachesTheCountConformingAndEven) {
+    visdb::Scene scene;
+    scene.materials.push_back({"floor", {0.5, 0.5, 0.5}, {0, 0, 0}, 1.0});
+    scene.materials.push_back({"light", {0, 0, 0}, {10, 10, 10}, 1.0});
+    visdb::Surface floor, light;
+    floor.material = 0;
+    for (int j = 0; j <= 2; ++j)
+        for (int i = 0; i <= 2; ++i) floor.mesh.positions.push_back({i - 1.0, j - 1.0, 0.0});
+    for (std::uint32_t j = 0; j < 2; ++j)
+        for (std::uint32_t i = 0; i < 2; ++i) {
+            const std::uint32_t a = 3 * j + i;
+            floor.mesh.triangles.push_back({a, a + 1, a + 4});
+            floor.mesh.triangles.push_back({a, a + 4, a + 3});
+        }
+    light.material = 1;
+    light.mesh.positions = {{-0.5, -0.5, 1.5}, {-0.5, 0.5, 1.5}, {0.5, 0.5, 1.5}, {0.5, -0.5, 1.5}};
+    light.mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+    scene.surfaces = {floor, light};
+
+    const visdb::Scene out = subdivide_uniformly(scene, 100);
+    EXPECT_GE(out.triangle_count(), 100u);
+    EXPECT_LE(out.triangle_count(), 101u);  // a split adds one triangle per side of the edge
+    EXPECT_EQ(out.surfaces[1].mesh.positions, light.mesh.positions);
+    EXPECT_EQ(out.surfaces[1].mesh.triangles, light.mesh.triangles);
+    const visdb::TriangleMesh& m = out.surfaces[0].mesh;
+    double area = 0.0, lo = 1e9, hi = 0.0;
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+    for (const glm::u32vec3& t : m.triangles) {
+        const glm::dvec3 n =
+            glm::cross(m.positions[t.y] - m.positions[t.x], m.positions[t.z] - m.positions[t.x]);
+        EXPECT_GT(n.z, 0.0);
+        area += 0.5 * n.z;
+        lo = std::min(lo, 0.5 * n.z);
+        hi = std::max(hi, 0.5 * n.z);
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+            ++edges[{std::min(a, b), std::max(a, b)}];
+        }
+    }
+    EXPECT_NEAR(area, 4.0, 1e-12);
+    EXPECT_LE(hi, 2.0 * lo * (1.0 + 1e-9));
+    double outline = 0.0;
+    for (const auto& [e, n] : edges) {
+        EXPECT_LE(n, 2);
+        if (n == 1) outline += glm::length(m.positions[e.second] - m.positions[e.first]);
+    }
+    EXPECT_NEAR(outline, 8.0, 1e-12);
+    // Nothing to split but the light: as it was
+    EXPECT_EQ(subdivide_uniformly(scene, 5).triangle_count(), scene.triangle_count());
+}
+
+// The mesh trade-off rows: the default DM bake, and the uniform mesh of its size without DM,
+// both measured against the exact direct light.
+TEST(Bench, MeshTradeoffPairsDmWithAUniformMeshOfItsSize) {
+    const abrad::testing::TempDir dir("tradeoff");
+    BenchOptions o;
+    o.out = dir / "out";
+    o.subdivisions = 1;
+    fs::create_directories(o.out);
+    FloorOptions room;
+    room.cell = 1.0;
+    room.furniture = 1;
+    const BenchScene scene{"room", generate_floor(room)};
+    const std::vector<BenchRun> runs = mesh_tradeoff(scene, radiosity::BakeOptions{}, {0.07}, o);
+    ASSERT_EQ(runs.size(), 2u);
+    const BenchRun &dm = runs[0], &uniform = runs[1];
+    EXPECT_TRUE(dm.options.dm);
+    EXPECT_FALSE(uniform.options.dm);
+    EXPECT_EQ(dm.kind, "tradeoff");
+    EXPECT_EQ(dm.options.bounces, 0);
+    EXPECT_GT(dm.triangles_out, dm.triangles_in);
+    EXPECT_GE(uniform.triangles_out, dm.triangles_out);
+    EXPECT_LE(uniform.triangles_out, dm.triangles_out + 1);
+    for (const BenchRun& r : runs) {
+        EXPECT_GT(r.field_error, 0.0);
+        EXPECT_LT(r.field_error, 0.5);
+    }
+    EXPECT_FALSE(fs::exists(o.out / "tradeoff.visdb"));
 }
 
 TEST(FloorGen, OneRoomHasItsAreasAndFacesInwards) {

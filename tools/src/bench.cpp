@@ -19,9 +19,11 @@
 #include <iomanip>
 #include <map>
 #include <optional>
+#include <queue>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 
 #include "abrad/atomic_file.h"
 #include "abrad/radiosity/direct.h"
@@ -141,7 +143,7 @@ const char* kCsvHeader =
     "seconds_shadow_edges_cpu,seconds_mesh,seconds_dm,seconds_store,peak_rss_mb,ff_error,"
     "field_error_rel_l1,mean_form_factor_sum,occluders_tested,seconds_cpu,seconds_indirect,"
     "indirect_elements,indirect_rows,energy_emitted_w,energy_absorbed_w,energy_escaped_w,"
-    "energy_unshot_w";
+    "energy_unshot_w,refine_tolerance";
 
 std::string csv_row(const BenchRun& r) {
     const BakeOptions& o = r.options;
@@ -165,6 +167,7 @@ std::string csv_row(const BenchRun& r) {
           << fmt(i->energy_escaped_w, 9) << ',' << fmt(i->energy_unshot_w, 9);
     else
         s << ",,,,,,,";
+    s << ',' << (o.dm ? fmt(o.refine_tolerance, 6) : std::string());
     return s.str();
 }
 
@@ -391,6 +394,30 @@ void write_run_tables(std::ostream& md, const std::vector<BenchRun>& runs) {
     if (!any_scaling) md << "No scaling or building runs (none asked for).\n";
 }
 
+// The mesh trade-off table: each DM run beside the uniform mesh of its size (runs in pairs).
+void write_tradeoff_table(std::ostream& md, const std::vector<BenchRun>& runs) {
+    std::vector<const BenchRun*> rs;
+    for (const BenchRun& r : runs)
+        if (r.kind == "tradeoff") rs.push_back(&r);
+    if (rs.empty()) return;
+    md << "## Mesh trade-off: discontinuity mesh against a uniform mesh of the same size\n\n"
+       << "Direct light, exact vertex values either way; the uniform mesh splits the scene's "
+          "longest edges until it has the DM mesh's triangles, baked with DM off.\n\n"
+       << "| scene | refine tolerance | DM triangles | DM field error | DM CPU s | uniform "
+          "triangles | uniform field error | uniform CPU s | DM / uniform error |\n"
+       << "|---|---|---|---|---|---|---|---|---|\n";
+    for (std::size_t i = 0; i + 1 < rs.size(); i += 2) {
+        const BenchRun &d = *rs[i], &u = *rs[i + 1];
+        md << "| " << d.scene << " | " << fmt(d.options.refine_tolerance, 3) << " | "
+           << d.triangles_out << " | " << fmt(d.field_error, 3) << " | " << fmt(d.seconds_cpu, 3)
+           << " | " << u.triangles_out << " | " << fmt(u.field_error, 3) << " | "
+           << fmt(u.seconds_cpu, 3) << " | "
+           << (u.field_error > 0.0 ? fmt(d.field_error / u.field_error, 3) : std::string("-"))
+           << " |\n";
+    }
+    md << "\n";
+}
+
 void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
                    const std::vector<std::string>& scene_names,
                    const std::vector<std::string>& pngs) {
@@ -440,6 +467,7 @@ void write_summary(const BenchOptions& bench, const std::vector<BenchRun>& runs,
                    << ": not on the front for this scene.\n";
         md << "\n";
     }
+    write_tradeoff_table(md, runs);
     write_run_tables(md, runs);
     write_file_atomically(bench.out / "summary.md", md.view());
 }
@@ -558,6 +586,111 @@ std::vector<std::size_t> pareto_front(const std::vector<BenchRun>& runs) {
     return front;
 }
 
+visdb::Scene subdivide_uniformly(const visdb::Scene& scene, std::size_t triangles) {
+    visdb::Scene out = scene;
+    // Edges of every receiver surface, longest first; an edge's triangles by (surface, edge)
+    using Key = std::pair<std::uint32_t, std::uint32_t>;  // vertex ids, smaller first
+    struct Edge {
+        double length2;
+        std::size_t surface;
+        Key key;
+        bool operator<(const Edge& o) const { return length2 < o.length2; }
+    };
+    std::vector<std::map<Key, std::vector<std::uint32_t>>> incident(out.surfaces.size());
+    std::priority_queue<Edge> queue;
+    const auto key = [](std::uint32_t a, std::uint32_t b) {
+        return Key{std::min(a, b), std::max(a, b)};
+    };
+    const auto add = [&](std::size_t s, std::uint32_t a, std::uint32_t b, std::uint32_t t) {
+        auto& list = incident[s][key(a, b)];
+        if (list.empty()) {
+            const auto& p = out.surfaces[s].mesh.positions;
+            const glm::dvec3 d = p[b] - p[a];
+            queue.push({glm::dot(d, d), s, key(a, b)});
+        }
+        list.push_back(t);
+    };
+    std::size_t count = 0;
+    for (std::size_t s = 0; s < out.surfaces.size(); ++s) {
+        const auto& mesh = out.surfaces[s].mesh;
+        count += mesh.triangles.size();
+        if (out.materials[out.surfaces[s].material].is_emitter()) continue;
+        for (std::uint32_t t = 0; t < mesh.triangles.size(); ++t)
+            for (int k = 0; k < 3; ++k)
+                add(s, mesh.triangles[t][k], mesh.triangles[t][(k + 1) % 3], t);
+    }
+    while (count < triangles && !queue.empty()) {
+        const Edge e = queue.top();
+        queue.pop();
+        auto& mesh = out.surfaces[e.surface].mesh;
+        auto& edges = incident[e.surface];
+        const auto it = edges.find(e.key);
+        if (it == edges.end()) continue;  // split already
+        const std::vector<std::uint32_t> tris = it->second;
+        edges.erase(it);
+        const auto m = static_cast<std::uint32_t>(mesh.positions.size());
+        mesh.positions.push_back(0.5 *
+                                 (mesh.positions[e.key.first] + mesh.positions[e.key.second]));
+        for (const std::uint32_t t : tris) {
+            // Triangle (u, v, w) with uv the edge: (u, m, w) keeps t, (m, v, w) is new
+            glm::u32vec3 tri = mesh.triangles[t];
+            int k = 0;
+            while (key(tri[k], tri[(k + 1) % 3]) != e.key) ++k;
+            const std::uint32_t u = tri[k], v = tri[(k + 1) % 3], w = tri[(k + 2) % 3];
+            const auto t2 = static_cast<std::uint32_t>(mesh.triangles.size());
+            mesh.triangles[t] = {u, m, w};
+            mesh.triangles.push_back({m, v, w});
+            auto& vw = edges[key(v, w)];
+            std::replace(vw.begin(), vw.end(), t, t2);
+            add(e.surface, u, m, t);
+            add(e.surface, m, w, t);
+            add(e.surface, m, v, t2);
+            add(e.surface, w, m, t2);
+            ++count;
+        }
+    }
+    return out;
+}
+
+std::vector<BenchRun> mesh_tradeoff(const BenchScene& scene, const BakeOptions& base,
+                                    const std::vector<double>& tolerances,
+                                    const BenchOptions& bench) {
+    std::vector<BenchRun> runs;
+    std::map<std::string, double> ff_cache;
+    const radiosity::DirectField field(scene.scene);
+    const fs::path db = bench.out / "tradeoff.visdb";
+    auto fresh_store = [&](const visdb::Scene& s) {
+        fs::remove(db);
+        visdb::Store store = visdb::Store::open(db.string(), visdb::OpenMode::CreateOrOpen);
+        store.add_import(s);
+        return store;
+    };
+    BakeOptions o = base;
+    o.bounces = 0;  // the field error's reference is the exact direct light
+    o.threads = bench.threads;
+    for (const double tolerance : tolerances) {
+        o.dm = true;
+        o.refine_tolerance = tolerance;
+        {
+            visdb::Store store = fresh_store(scene.scene);
+            runs.push_back(run_one(scene, "tradeoff", o, store, &field, bench, ff_cache));
+        }
+        const std::size_t target = runs.back().triangles_out;
+        const BenchScene uniform{scene.name, subdivide_uniformly(scene.scene, target)};
+        o.dm = false;
+        visdb::Store store = fresh_store(uniform.scene);
+        runs.push_back(run_one(uniform, "tradeoff", o, store, &field, bench, ff_cache));
+        const BenchRun &d = runs[runs.size() - 2], &u = runs.back();
+        std::fprintf(stderr,
+                     "bench: %s, mesh trade-off at refine tolerance %g: DM %zu triangles, field "
+                     "error %.4g; uniform %zu triangles, field error %.4g\n",
+                     scene.name.c_str(), tolerance, d.triangles_out, d.field_error, u.triangles_out,
+                     u.field_error);
+    }
+    fs::remove(db);
+    return runs;
+}
+
 std::vector<BenchRun> run_bench(const BenchOptions& bench) {
     fs::create_directories(bench.out);
     const fs::path db = bench.out / "bench.visdb";
@@ -587,6 +720,14 @@ std::vector<BenchRun> run_bench(const BenchOptions& bench) {
                          r.field_error, r.triangles_out);
         }
     }
+
+    // The mesh trade-off: DM against uniform meshes of the same size
+    if (!bench.tradeoff_tolerances.empty())
+        for (const BenchScene& s : bench.scenes) {
+            std::vector<BenchRun> t =
+                mesh_tradeoff(s, bench.scaling, bench.tradeoff_tolerances, bench);
+            runs.insert(runs.end(), t.begin(), t.end());
+        }
 
     // Scaling on generated floors with the given settings
     BakeOptions scaling = bench.scaling;
@@ -630,9 +771,10 @@ std::vector<BenchRun> run_bench(const BenchOptions& bench) {
         std::ostringstream f;
         f << kCsvHeader << "\n";
         for (const BenchRun& r : runs)
-            if (r.kind != "grid") f << csv_row(r) << "\n";
+            if (r.kind != "grid" && r.kind != "tradeoff") f << csv_row(r) << "\n";
         write_file_atomically(bench.out / "scaling.csv", f.view());
     }
+    if (!bench.tradeoff_tolerances.empty()) write_csv(bench.out / "tradeoff.csv", runs, "tradeoff");
     const std::vector<std::string> pngs = plot(bench, runs, scene_names);
     write_summary(bench, runs, scene_names, pngs);
     return runs;

@@ -74,7 +74,8 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
         ->capture_default_str();
     app.add_option("--converge", a.converge,
                    "Stop interreflection when the unshot power is below "
-                   "this fraction of the emitted power")
+                   "this fraction of the emitted power (with --ambient off: when the light "
+                   "still to come is below this fraction of the reflected light)")
         ->capture_default_str();
     app.add_option("--element-resolution", a.element_resolution,
                    "Hemicube resolution of the interreflection's element rows (even, 2..4096; "

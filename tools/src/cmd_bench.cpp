@@ -26,6 +26,8 @@ struct BenchArgs {
     std::size_t lights_at = 30000;
     bool quick = false;
     bool no_room = false;
+    std::vector<double> tradeoff{0.2, 0.07, 0.01};
+    bool no_tradeoff = false;
     int subdivisions = 2;
     std::size_t field_error_max = 200000;
     BakeArgs bake;
@@ -122,6 +124,14 @@ void add_bench(CLI::App& app) {
                    "Measure the field error only for bakes of "
                    "at most this many triangles")
         ->capture_default_str();
+    app.add_option("--tradeoff", a.tradeoff,
+                   "Mesh trade-off: bake every grid scene with DM at these refine tolerances and "
+                   "uniformly subdivided to the same triangle count without DM (direct light), "
+                   "and report triangles against field error (with --quick: the bake's "
+                   "--refine-tolerance only)")
+        ->delimiter(',')
+        ->capture_default_str();
+    app.add_flag("--no-tradeoff", a.no_tradeoff, "Leave out the mesh trade-off");
     add_bake_options(app, a.bake);
 }
 
@@ -143,6 +153,14 @@ int run_bench(const Invocation& call) {
     o.threads = o.scaling.threads;
     for (const std::string& s : a.sizes) o.sizes.push_back(parse_count(s));
     o.light_counts = a.light_counts;
+    for (double t : a.tradeoff)
+        if (!(t > 0.0 && t < 1.0))
+            bad_input("--tradeoff: refine tolerances must be in (0, 1), got " + std::to_string(t));
+    if (!a.no_tradeoff) {
+        const bool given = call.app.count("--tradeoff") > 0;
+        o.tradeoff_tolerances =
+            a.quick && !given ? std::vector<double>{o.scaling.refine_tolerance} : a.tradeoff;
+    }
     o.lights_at = a.lights_at;
     for (int i = 0; i < call.argc; ++i)
         o.command += (i ? " " : "") + std::string(i ? call.argv[i] : "abrad");

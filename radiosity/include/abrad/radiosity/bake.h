@@ -58,7 +58,9 @@ struct BakeOptions {
     /// `converge` (the default: the full solution), 0 = direct light only (the paper's
     /// setting), N = N bounces (Jacobi sweeps).
     int bounces = -1;
-    double converge = 0.005;    ///< unshot power / emitted power at which to stop
+    /// Unshot power / emitted power at which to stop (without the ambient term: the light still
+    /// to come / the reflected light, IndirectOptions::converge)
+    double converge = 0.005;
     double element_size = 0.5;  ///< metres: element grid of the interreflection solution
     /// Hemicube resolution of the element rows (the lights' shots onto the elements use
     /// `resolution`): element-to-element form factors are sums over many pixels.

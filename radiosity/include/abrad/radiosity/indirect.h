@@ -46,7 +46,10 @@ struct IndirectOptions {
     /// Number of bounces (each one a Jacobi sweep: every element shoots what it received in
     /// the previous bounce), or 0 to converge on the unshot fraction instead.
     int bounces = 0;
-    double converge = 0.005;    ///< stop when unshot power / emitted power falls below this
+    /// Stop when unshot power / emitted power falls below this; without the ambient term, when
+    /// the light still to come (unshot power / (1 − mean ρ)) falls below this fraction of the
+    /// reflected light (that and what was received)
+    double converge = 0.005;
     double element_size = 0.5;  ///< metres: side of the element grid in each region
     /// Elements shoot in groups (shooters): blocks of shooter_cells × shooter_cells cells of a
     /// region, and the small faces within cubes of that side; 1 = every element alone.
@@ -146,9 +149,9 @@ struct IndirectSolution {
 void validate(const IndirectOptions& options);
 
 /// Solves the interreflection of `input`: shoots once from every light triangle onto the
-/// elements, then from the elements until `bounces` bounces are done or the unshot fraction
-/// is below `converge`. Throws InputError when there is no light. Progress labels carry the
-/// unshot fraction: "interreflection: shots (unshot 1.2%)".
+/// elements, then from the elements until `bounces` bounces are done or the fraction left
+/// (IndirectOptions::converge) is below `converge`. Throws InputError when there is no light.
+/// Progress labels carry the fraction left: "interreflection: shots (left 1.2%, target 0.5%)".
 IndirectSolution solve_indirect(const IndirectInput& input, const IndirectOptions& options,
                                 const ProgressFn& progress = {});
 

@@ -39,12 +39,15 @@ struct BenchOptions {
     int threads = 0;       ///< 0 = all cores
     bool plot = true;      ///< run gnuplot (when found) for the PNGs
     std::string command;   ///< the command line, quoted in the summary
+    /// The mesh trade-off on every grid scene: DM at these refine tolerances against uniform
+    /// meshes of the same size (empty: none)
+    std::vector<double> tradeoff_tolerances;
 };
 
 /// One bake of the benchmark.
 struct BenchRun {
     std::string scene;
-    std::string kind;  ///< "grid", "scaling", "lights" or "building"
+    std::string kind;  ///< "grid", "scaling", "lights", "building" or "tradeoff"
     std::size_t triangles_in = 0, light_triangles = 0, triangles_out = 0;
     radiosity::BakeOptions options;
     double seconds_wall = 0.0;    ///< the bake call, wall clock
@@ -78,8 +81,25 @@ std::vector<std::size_t> pareto_front(const std::vector<BenchRun>& runs);
 /// (1 when every watt is accounted for), or -1 without interreflection.
 double energy_closure(const visdb::BakeStats& statistics);
 
+/// The scene with its receivers' triangles split, longest edge first over the whole scene,
+/// until it has at least `triangles` triangles in all (or nothing is left to split): the
+/// uniform mesh of the same size as a discontinuity mesh, the baseline of the mesh
+/// trade-off. A split halves both triangles on the edge (the globally longest edge is the
+/// longest of each: conforming within a surface, and no angle falls below half the smallest
+/// one the surface started with, Rosenberg and Stenger). Emitters are left as they are.
+visdb::Scene subdivide_uniformly(const visdb::Scene& scene, std::size_t triangles);
+
+/// The mesh trade-off rows of one scene: direct light (bounces 0) baked with `base`'s
+/// discontinuity mesh at each refine tolerance, and each time the scene subdivided uniformly
+/// to the same triangle count and baked without DM; kind "tradeoff", options.dm telling which.
+/// Field errors against the scene's exact direct light.
+std::vector<BenchRun> mesh_tradeoff(const BenchScene& scene, const radiosity::BakeOptions& base,
+                                    const std::vector<double>& tolerances,
+                                    const BenchOptions& bench);
+
 /// Runs everything and writes DIR/bench.csv, DIR/scaling.csv, DIR/speed_error.png,
-/// DIR/scaling.png, DIR/summary.md. Progress lines go to stderr. Returns the runs.
+/// DIR/scaling.png, DIR/summary.md, and DIR/tradeoff.csv with tradeoff_tolerances. Progress
+/// lines go to stderr. Returns the runs.
 std::vector<BenchRun> run_bench(const BenchOptions& options);
 
 }  // namespace abrad::tools
