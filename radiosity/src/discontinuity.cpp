@@ -160,9 +160,12 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
                 out.irradiance[v] = it->second;
                 continue;
             }
-            out.irradiance[v] = exact_irradiance(
-                g.patches, g.emittance, lights[out.vertex_region[v]], bvh, out.mesh.positions[v],
-                regions.planar[out.vertex_region[v]].normal, occ, reach);
+            const glm::dvec3& x = out.mesh.positions[v];
+            const glm::dvec3& normal = regions.planar[out.vertex_region[v]].normal;
+            out.irradiance[v] =
+                exact_irradiance(g.patches, g.emittance, lights[out.vertex_region[v]], bvh, x,
+                                 normal, occ, reach) +
+                luminaires_irradiance(g.luminaires, g.patches, bvh, x, normal, reach);
             fresh[v] = 1;
         }
     });
@@ -204,7 +207,8 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
             at_mid = hit->second;
         } else {
             at_mid = exact_irradiance(g.patches, g.emittance, lights[r], bvh, mid, rn, occ,
-                                      options.reach);
+                                      options.reach) +
+                     luminaires_irradiance(g.luminaires, g.patches, bvh, mid, rn, options.reach);
             evaluated.emplace_back(key, at_mid);
         }
         const double diff = visdb::channel_mean(glm::abs(at_mid - linear));
