@@ -417,6 +417,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     shots.vertex_irradiance.assign(nv, visdb::Rgb(0.0));
     shots.segments.resize(options.dm ? nt : 0);
     shots.lights_of_triangle.resize(options.dm ? nt : 0);
+    shots.luminaires_of_triangle.resize(options.dm ? nt : 0);
     visdb::ShootStats shoot_stats;
     visdb::ExactShadeStats exact_stats;
     visdb::ShadowEdgeStats shadow_stats;
@@ -428,17 +429,17 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
 
     const std::size_t sources = g.lights.size() + g.luminaires.size();
     // Adds one source's shot to the totals (under the lock)
-    auto add = [&](const OneLight& one, std::uint32_t light) {
+    auto add = [&](const OneLight& one, std::vector<std::vector<std::uint32_t>>& sources_of,
+                   std::uint32_t source) {
         // The source's receivers and their vertices are the only non-zero entries
         for (const std::uint32_t j : one.near) shots.triangle_irradiance[j] += one.triangle[j];
         if (exact_vertices)
             for (const std::uint32_t v : one.near_vertices)
                 shots.vertex_irradiance[v] += one.vertex[v];
         lit.insert(lit.end(), one.segments.begin(), one.segments.end());
-        if (options.dm && light != kNoPatch)
+        if (options.dm)
             for (const std::uint32_t j : one.near)
-                if (visdb::any_positive(one.triangle[j]))
-                    shots.lights_of_triangle[j].push_back(light);
+                if (visdb::any_positive(one.triangle[j])) sources_of[j].push_back(source);
         shoot_stats += one.shoot;
         exact_stats += one.exact;
         shadow_stats += one.shadow;
@@ -450,12 +451,12 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
         const std::uint32_t l = g.lights[li];
         const OneLight one = shoot_one(g, regions, bvh, hemicube, l, emitter[li], options);
         std::lock_guard lock(accumulate);
-        add(one, l);
+        add(one, shots.lights_of_triangle, l);
     });
     // Luminaires one after the other (each shades and casts in parallel)
-    for (const visdb::Luminaire& lum : g.luminaires) {
-        const OneLight one = shoot_luminaire(g, regions, bvh, lum, options);
-        add(one, kNoPatch);
+    for (std::size_t k = 0; k < g.luminaires.size(); ++k) {
+        const OneLight one = shoot_luminaire(g, regions, bvh, g.luminaires[k], options);
+        add(one, shots.luminaires_of_triangle, static_cast<std::uint32_t>(k));
     }
 
     if (options.dm) shadow_stats.segments_weak = keep_strong(lit, shots);

@@ -64,6 +64,9 @@ struct LightShots {
     /// exact irradiance on a region asks only these lights (a light that reaches no triangle of
     /// a region through any hemicube sample adds nothing there).
     std::vector<std::vector<std::uint32_t>> lights_of_triangle;
+    /// Per triangle, the luminaires (indices into BakeGeometry::luminaires) whose hemicubes
+    /// gave it some light, ascending (DM only), for the same purpose.
+    std::vector<std::vector<std::uint32_t>> luminaires_of_triangle;
 };
 
 /// The discontinuity mesh with the exact direct irradiance at its vertices.
