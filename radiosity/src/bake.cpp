@@ -206,6 +206,7 @@ visdb::Bake bake(const visdb::Scene& scene, const BakeOptions& options,
         visdb::Scene local = scene;
         for (auto& s : local.surfaces)
             for (glm::dvec3& p : s.mesh.positions) p -= origin;
+        for (visdb::Luminaire& l : local.luminaires) l.position -= origin;
         visdb::Bake result = bake_here(local, options, progress);
         for (glm::dvec3& p : result.mesh.positions) p += origin;
         result.parameters.emplace_back("local_origin", std::to_string(origin.x) + " " +

@@ -81,16 +81,8 @@ void add_surface(const visdb::Surface& surface, std::uint32_t index,
 }  // namespace
 
 BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats) {
-    // Luminaires from photometric files are imported and stored, but the bake does not shoot
-    // them yet: refused rather than baked without their light
-    if (!scene.luminaires.empty()) {
-        throw InputError("the scene has " + std::to_string(scene.luminaires.size()) +
-                         " luminaire(s) from photometric files (first '" +
-                         scene.luminaires.front().name +
-                         "'); baking their light is not supported yet: import without the "
-                         "[[luminaire]] tables to bake");
-    }
     BakeGeometry g;
+    g.luminaires = scene.luminaires;
     std::uint64_t degenerate = 0;
     for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
         const visdb::Surface& surface = scene.surfaces[s];
@@ -104,13 +96,16 @@ BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats)
     find_lights(g);
     if (stats) stats->degenerate_skipped = degenerate;
     if (g.mesh.triangles.empty()) throw InputError("the scene has no triangles to bake");
-    if (g.lights.empty())
-        throw InputError("the scene has no light sources (no material with emittance > 0)");
+    if (g.lights.empty() && g.luminaires.empty()) {
+        throw InputError(
+            "the scene has no light sources (no material with emittance > 0, no luminaire)");
+    }
     return g;
 }
 
 BakeGeometry describe_mesh(const visdb::Scene& scene, visdb::BakeMesh mesh) {
     BakeGeometry g;
+    g.luminaires = scene.luminaires;
     g.mesh = std::move(mesh);
     for (std::size_t t = 0; t < g.mesh.triangles.size(); ++t) {
         const glm::u32vec3 tri = g.mesh.triangles[t];

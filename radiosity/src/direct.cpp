@@ -121,6 +121,20 @@ visdb::Rgb point_source_irradiance(const visdb::Luminaire& luminaire,
     return intensity * (cos_theta / d2 * transmittance(patches, bvh, x, luminaire.position));
 }
 
+visdb::Rgb luminaires_irradiance(std::span<const visdb::Luminaire> luminaires,
+                                 std::span<const Patch> patches, const Bvh& bvh,
+                                 const glm::dvec3& x, const glm::dvec3& n, double reach) {
+    visdb::Rgb h(0.0);
+    for (const visdb::Luminaire& l : luminaires) {
+        if (reach > 0.0) {
+            const glm::dvec3 d = glm::abs(x - l.position);
+            if (d.x > reach || d.y > reach || d.z > reach) continue;
+        }
+        h += point_source_irradiance(l, patches, bvh, x, n);
+    }
+    return h;
+}
+
 visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
                             std::span<const std::uint32_t> lights, const Bvh& bvh,
                             const glm::dvec3& x, const glm::dvec3& n,
@@ -145,9 +159,7 @@ visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visd
 visdb::Rgb DirectField::irradiance(const glm::dvec3& x, const glm::dvec3& n) const {
     std::vector<const Patch*> occluders;
     visdb::Rgb h = exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders);
-    for (const visdb::Luminaire& l : m_luminaires)
-        h += point_source_irradiance(l, m_patches, m_bvh, x, n);
-    return h;
+    return h + luminaires_irradiance(m_luminaires, m_patches, m_bvh, x, n);
 }
 
 }  // namespace abrad::radiosity

@@ -143,10 +143,26 @@ RegionLights region_lights(const Regions& regions,
     return pooled;
 }
 
+// Per region, the light triangles and the luminaires that reach it.
+struct RegionSources {
+    RegionLights lights, luminaires;
+};
+
+// The exact direct light at x (unit normal n) of a region: its light triangles `lights` and its
+// luminaires `luminaires` (indices into g.luminaires).
+visdb::Rgb exact_at(const BakeGeometry& g, const Bvh& bvh, std::span<const std::uint32_t> lights,
+                    std::span<const std::uint32_t> luminaires, const glm::dvec3& x,
+                    const glm::dvec3& n, std::vector<const Patch*>& occ, double reach) {
+    visdb::Rgb h = exact_irradiance(g.patches, g.emittance, lights, bvh, x, n, occ, reach);
+    for (const std::uint32_t k : luminaires)
+        h += luminaires_irradiance({&g.luminaires[k], 1}, g.patches, bvh, x, n, reach);
+    return h;
+}
+
 // Exact irradiance at every vertex of `out` (from the cache where known); returns the
 // number of new evaluations.
 std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                              const RegionLights& lights, double reach, IrradianceCache& cache,
+                              const RegionSources& sources, double reach, IrradianceCache& cache,
                               DiscontinuityMesh& out, ParallelProgress& progress) {
     const std::size_t n = out.mesh.positions.size();
     out.irradiance.assign(n, visdb::Rgb(0.0));
@@ -160,9 +176,11 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
                 out.irradiance[v] = it->second;
                 continue;
             }
-            out.irradiance[v] = exact_irradiance(
-                g.patches, g.emittance, lights[out.vertex_region[v]], bvh, out.mesh.positions[v],
-                regions.planar[out.vertex_region[v]].normal, occ, reach);
+            const glm::dvec3& x = out.mesh.positions[v];
+            const glm::dvec3& normal = regions.planar[out.vertex_region[v]].normal;
+            const std::uint32_t r = out.vertex_region[v];
+            out.irradiance[v] =
+                exact_at(g, bvh, sources.lights[r], sources.luminaires[r], x, normal, occ, reach);
             fresh[v] = 1;
         }
     });
@@ -178,7 +196,7 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
 // The points that split region r's edges whose midpoint's exact irradiance departs from the
 // linear interpolation of their ends; midpoints evaluated here go to `evaluated`.
 void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                   const RegionLights& lights, const MeshedRegion& m, std::uint32_t r,
+                   const RegionSources& sources, const MeshedRegion& m, std::uint32_t r,
                    const visdb::Rgb* h, double floor, const BakeOptions& options,
                    const IrradianceCache& cache, std::vector<glm::dvec3>& split,
                    std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
@@ -203,8 +221,8 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
         if (hit != cache.end()) {
             at_mid = hit->second;
         } else {
-            at_mid = exact_irradiance(g.patches, g.emittance, lights[r], bvh, mid, rn, occ,
-                                      options.reach);
+            at_mid = exact_at(g, bvh, sources.lights[r], sources.luminaires[r], mid, rn, occ,
+                              options.reach);
             evaluated.emplace_back(key, at_mid);
         }
         const double diff = visdb::channel_mean(glm::abs(at_mid - linear));
@@ -217,7 +235,7 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
 // One refinement round over every non-emitting region: adds the split points to the regions;
 // returns how many were added.
 std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
-                   const RegionLights& lights, const std::vector<MeshedRegion>& meshed,
+                   const RegionSources& sources, const std::vector<MeshedRegion>& meshed,
                    const DiscontinuityMesh& current, const BakeOptions& options,
                    IrradianceCache& cache, std::uint64_t& evaluations, ParallelProgress& progress) {
     double h_max = 0.0;
@@ -234,7 +252,7 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
         progress.add(meshed[r].triangles.size());
         if (regions.emitter[r]) return;
-        refine_region(g, bvh, regions, lights, meshed[r], static_cast<std::uint32_t>(r),
+        refine_region(g, bvh, regions, sources, meshed[r], static_cast<std::uint32_t>(r),
                       current.irradiance.data() + region_start[r], floor, options, cache, split[r],
                       evaluated[r]);
     });
@@ -258,7 +276,8 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
                                        LightShots& shots, const BakeOptions& options,
                                        visdb::BakeStats* stats, const ProgressFn& progress) {
     std::vector<std::vector<ShadowSegment>>& segments = shots.segments;
-    const RegionLights lights = region_lights(regions, shots.lights_of_triangle);
+    const RegionSources sources{region_lights(regions, shots.lights_of_triangle),
+                                region_lights(regions, shots.luminaires_of_triangle)};
     const auto t_dm = Clock::now();
     visdb::DiscontinuityStats st;
     if (stats && stats->dm) st = *stats->dm;  // the shadow edge counters of shoot_lights
@@ -288,12 +307,12 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
             ParallelProgress vertices(progress, "mesh: exact irradiance at vertices" + of_rounds,
                                       out.mesh.positions.size());
             st.exact_evaluations +=
-                evaluate_vertices(g, bvh, regions, lights, options.reach, cache, out, vertices);
+                evaluate_vertices(g, bvh, regions, sources, options.reach, cache, out, vertices);
         }
         if (round >= options.refine_rounds) break;
         ParallelProgress triangles(progress, "mesh: refinement, triangles" + of_rounds,
                                    out.mesh.triangles.size());
-        const std::size_t added = refine(g, bvh, regions, lights, meshed, out, options, cache,
+        const std::size_t added = refine(g, bvh, regions, sources, meshed, out, options, cache,
                                          st.exact_evaluations, triangles);
         st.refine_points += added;
         if (added == 0) break;

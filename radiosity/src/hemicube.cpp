@@ -85,6 +85,44 @@ Hemicube::Hemicube(int resolution) : m_resolution(resolution) {
     }
 }
 
+namespace {
+
+// Solid angle (sr) of the rectangle [a0, a1] × [b0, b1] of the plane at distance 1 from the
+// eye, its coordinates measured from the foot of the perpendicular: Σ ± atan(ab / √(1+a²+b²))
+// over the corners.
+double rectangle_solid_angle(double a0, double a1, double b0, double b1) {
+    auto corner = [](double a, double b) {
+        return std::atan(a * b / std::sqrt(1.0 + a * a + b * b));
+    };
+    return corner(a1, b1) - corner(a0, b1) - corner(a1, b0) + corner(a0, b0);
+}
+
+}  // namespace
+
+Hemicube::Hemicube(int resolution, const std::function<double(const glm::dvec3&)>& intensity)
+    : Hemicube(resolution) {
+    // Each pixel: 4 x 4 sub-rectangles, the intensity at each one's centre times its solid angle
+    constexpr int kSub = 4;
+    for (int f = 0; f < kFaceCount; ++f) {
+        for (int y = 0; y < height(f); ++y) {
+            for (int x = 0; x < width(f); ++x) {
+                double w = 0.0;
+                for (int sy = 0; sy < kSub; ++sy)
+                    for (int sx = 0; sx < kSub; ++sx) {
+                        const double a0 = proj_a(x + double(sx) / kSub);
+                        const double a1 = proj_a(x + double(sx + 1) / kSub);
+                        const double b0 = proj_b(f, y + double(sy) / kSub);
+                        const double b1 = proj_b(f, y + double(sy + 1) / kSub);
+                        const glm::dvec3 dir =
+                            glm::normalize(from_face(f, {0.5 * (a0 + a1), 0.5 * (b0 + b1), 1.0}));
+                        w += intensity(dir) * rectangle_solid_angle(a0, a1, b0, b1);
+                    }
+                m_delta[face_offset(f) + static_cast<std::size_t>(y * width(f) + x)] = w;
+            }
+        }
+    }
+}
+
 std::string Hemicube::to_string() const {
     double sum = 0.0;
     for (double d : m_delta) sum += d;

@@ -21,6 +21,7 @@
 #include <string>
 
 #include "abrad/radiosity/hemicube.h"
+#include "abrad/radiosity/point_source.h"
 #include "abrad/radiosity/polygon.h"
 
 namespace abrad::radiosity {
@@ -523,6 +524,20 @@ class Solver {
         return e != IndirectSolution::kNoElement && m_shooter_of[e] == s;
     }
 
+    // A light's shot of `power` along `row` onto the elements (fronts receive, backs absorb,
+    // what no pixel caught escapes); `share` is the part of the power the hemicube carries
+    // (a point source's two hemicubes share it)
+    void add_shot(const Row& row, const visdb::Rgb& power, double share = 1.0) {
+        for (const Entry& x : row.entries) {
+            if (x.element & kBack) {
+                m_back_absorbed += channel_mean(power) * x.ff;
+                continue;
+            }
+            m_H[x.element] += power * double(x.ff) / m_sol.elements[x.element].area;
+        }
+        m_escaped += channel_mean(power) * std::max(0.0, share - row.total);
+    }
+
     // Direct light onto the elements: one hemicube per light triangle (the paper's shot)
     void shoot_lights() {
         m_H.assign(m_ne, visdb::Rgb(0.0));
@@ -530,10 +545,13 @@ class Solver {
         for (std::size_t t = 0; t < m_in.patches.size(); ++t)
             if (visdb::any_positive(m_in.emittance[t]))
                 lights.push_back(static_cast<std::uint32_t>(t));
-        if (lights.empty())
-            throw InputError("the scene has no light sources (no material with emittance > 0)");
+        if (lights.empty() && m_in.luminaires.empty()) {
+            throw InputError(
+                "the scene has no light sources (no material with emittance > 0, no luminaire)");
+        }
         for (const std::uint32_t l : lights)
             m_sol.energy.emitted += channel_mean(m_in.emittance[l]) * area(m_in.patches[l]);
+        shoot_luminaires();
         progress("interreflection: lights", 0, lights.size(), 1.0);
         std::mutex merge;
         tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
@@ -544,16 +562,26 @@ class Solver {
             fold_row(shot.hits, m_sol.elements, frame.origin, m_region_normal, row);
             const visdb::Rgb power = m_in.emittance[lights[li]] * area(light);
             std::lock_guard lock(merge);
-            for (const Entry& x : row.entries) {
-                if (x.element & kBack) {
-                    m_back_absorbed += channel_mean(power) * x.ff;
-                    continue;
-                }
-                m_H[x.element] += power * double(x.ff) / m_sol.elements[x.element].area;
-            }
-            m_escaped += channel_mean(power) * std::max(0.0, 1.0 - row.total);
+            add_shot(row, power);
         });
         for (std::size_t e = 0; e < m_ne; ++e) m_sol.elements[e].direct = m_H[e];
+    }
+
+    // Direct light of the luminaires onto the elements: two hemicubes per point source whose
+    // pixels carry fractions of its flux (point_source.h), so a row's F is the flux fraction
+    void shoot_luminaires() {
+        for (const visdb::Luminaire& lum : m_in.luminaires) {
+            const visdb::Rgb power = luminaire_power(lum);
+            m_sol.energy.emitted += channel_mean(power);
+            const std::array<PointShooter, 2> shooters = point_shooters(lum, m_options.resolution);
+            for (const PointShooter& s : shooters) {
+                Row row;
+                fold_row(shoot(s.frame, m_in.patches, s.hemicube, m_shoot).hits, m_sol.elements,
+                         s.frame.origin, m_region_normal, row);
+                const std::vector<double>& w = s.hemicube.deltas();
+                add_shot(row, power, std::accumulate(w.begin(), w.end(), 0.0));
+            }
+        }
     }
 
     double unshot_power() const {

@@ -22,7 +22,8 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
                               .reflectance = g.reflectance,
                               .emittance = g.emittance,
                               .region = regions.of_triangle,
-                              .region_normal = region_normal};
+                              .region_normal = region_normal,
+                              .luminaires = g.luminaires};
     const IndirectOptions io{.bounces = std::max(options.bounces, 0),
                              .converge = options.converge,
                              .element_size = options.element_size,

@@ -7,6 +7,7 @@
 #include <mutex>
 #include <vector>
 
+#include "abrad/radiosity/point_source.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
@@ -54,6 +55,11 @@ std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeom
         std::lock_guard lock(accumulate);
         for (std::size_t j = 0; j < tri.size(); ++j) tri[j] += mine[j];
     });
+    // Luminaires: their point-source hemicubes, each pixel a fraction of the flux
+    for (const visdb::Luminaire& lum : lights.luminaires)
+        for (const PointShooter& shooter : point_shooters(lum, hemicube.resolution()))
+            add_patch_irradiance(shoot(shooter.frame, target.patches, shooter.hemicube, so),
+                                 luminaire_power(lum), 1.0, target, tri);
     return average_to_vertices(target, tri);
 }
 

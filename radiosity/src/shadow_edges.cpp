@@ -344,6 +344,28 @@ void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& g
     }
 }
 
+// Contact edges: occluder edges in the receiver's plane of faces that stand out of it (a box
+// standing on a floor, a wall on a slab that runs under it). A point source's light stops
+// there whatever the point's place, so they bound its shadow where ev_events casts nothing.
+void contact_edges(const Context& c, const std::vector<EdgeGroup>& groups,
+                   std::vector<ShadowSegment>& out) {
+    const double keep_len = std::max(c.min_length, c.tol);
+    for (const EdgeGroup& g : groups) {
+        if (std::abs(height(c, g.p)) > c.tol || std::abs(height(c, g.q)) > c.tol) continue;
+        bool stands = false;
+        for (const dvec3& third : g.thirds) stands |= std::abs(height(c, third)) > c.tol;
+        if (!stands) continue;
+        // Clip to the receiver triangle
+        Span s{0.0, 1.0};
+        bool inside = true;
+        for (std::size_t e = 0; e < 3 && inside; ++e)
+            inside = keep_where(s, c.region[e](g.p), c.region[e](g.q), 0.0);
+        if (!inside) continue;
+        const dvec3 a = g.p + s.lo * (g.q - g.p), b = g.p + s.hi * (g.q - g.p);
+        if (glm::length(b - a) >= keep_len) out.push_back({a, b});
+    }
+}
+
 // Keeps the part of the 2D segment w0-w1 at least `tol` inside the triangle `t`.
 bool clip_to_triangle(dvec2& w0, dvec2& w1, const std::array<dvec2, 3>& t, double tol) {
     const double orient = cross2(t[1] - t[0], t[2] - t[0]);
@@ -650,54 +672,57 @@ std::vector<ShadowSegment> merge(const Context& c, const std::vector<ShadowSegme
     return out;
 }
 
-}  // namespace
-
-std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, const Patch& receiver,
-                                        std::span<const Patch* const> occluders, double min_length,
-                                        ShadowStats* stats, const EmitterEdges& emitter) {
-    ShadowStats st;
-    std::vector<ShadowSegment> result;
-    auto finish = [&](std::vector<ShadowSegment> r) {
-        st.segments = r.size();
-        if (stats) *stats += st;
-        return r;
-    };
-
+// The receiver's plane and region, the scene scale and the occluders of `c`; `light` (null
+// for a point source) bounds the region to the front of its plane and is no occluder. The
+// box of the receiver and `points` gives the scale. False when nothing can be cast (a
+// degenerate receiver or light, or no occluder).
+bool make_context(Context& c, const Patch& receiver, const Patch* light,
+                  std::span<const dvec3> points, std::span<const Patch* const> occluders,
+                  double min_length) {
     // Receiver and light planes; scene scale R
     const dvec3 rn = glm::cross(receiver.p[1] - receiver.p[0], receiver.p[2] - receiver.p[0]);
-    const dvec3 ln = glm::cross(light.p[1] - light.p[0], light.p[2] - light.p[0]);
     dvec3 lo = receiver.p[0], hi = receiver.p[0];
-    for (const Patch* t : {&receiver, &light})
-        for (const dvec3& p : t->p) {
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
-    Context c{};
+    for (const dvec3& p : receiver.p) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    for (const dvec3& p : points) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
     c.scale = glm::length(hi - lo);
-    const double rl = glm::length(rn), ll = glm::length(ln);
-    if (!(c.scale > 0.0) || !std::isfinite(c.scale) || rl <= 1e-300 || ll <= 1e-300 ||
-        rl <= 1e-24 * c.scale * c.scale || ll <= 1e-24 * c.scale * c.scale)
-        return finish({});
+    const double rl = glm::length(rn);
+    if (!(c.scale > 0.0) || !std::isfinite(c.scale) || rl <= 1e-300 ||
+        rl <= 1e-24 * c.scale * c.scale)
+        return false;
     c.tol = kRel * c.scale;
     c.min_length = min_length;
     c.r0 = receiver.p[0];
     c.nr = rn / rl;
-    const dvec3 nl = ln / ll;
     for (int e = 0; e < 3; ++e) {
         const dvec3 a = receiver.p[e], b = receiver.p[(e + 1) % 3];
         const dvec3 n = glm::normalize(glm::cross(c.nr, b - a));  // inward
         c.region[static_cast<std::size_t>(e)] = {n, glm::dot(n, a)};
         c.rv[static_cast<std::size_t>(e)] = a;
     }
-    c.region[3] = {nl, glm::dot(nl, light.p[0])};
+    if (light) {
+        const dvec3 ln = glm::cross(light->p[1] - light->p[0], light->p[2] - light->p[0]);
+        const double ll = glm::length(ln);
+        if (ll <= 1e-300 || ll <= 1e-24 * c.scale * c.scale) return false;
+        c.region[3] = {ln / ll, glm::dot(ln / ll, light->p[0])};
+    } else {
+        c.region[3] = c.region[0];  // a point source lights every side: no fourth bound
+    }
 
-    // Occluders: without the receiver, the light and what lies wholly behind the light's
+    // Occluders: without the receiver, the light and what lies wholly behind an area light's
     // plane (a segment from the light to the receiver runs in front of it: the other
     // triangles of a closed emitter hide nothing of it); the opaque ones also cut
     const Affine& light_plane = c.region[3];
     for (const Patch* t : occluders) {
-        if (t == nullptr || same_triangle(*t, receiver) || same_triangle(*t, light)) continue;
-        if (std::max({light_plane(t->p[0]), light_plane(t->p[1]), light_plane(t->p[2])}) <= c.tol)
+        if (t == nullptr || same_triangle(*t, receiver) || (light && same_triangle(*t, *light)))
+            continue;
+        if (light &&
+            std::max({light_plane(t->p[0]), light_plane(t->p[1]), light_plane(t->p[2])}) <= c.tol)
             continue;
         const std::size_t idx = c.occ.size();
         c.occ.push_back(t);
@@ -710,7 +735,42 @@ std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, co
         c.cutters.push_back({t, n / len});
         c.cutter_of.push_back(idx);
     }
-    if (c.occ.empty()) return finish({});
+    return !c.occ.empty();
+}
+
+}  // namespace
+
+std::vector<ShadowSegment> point_shadow_edges(const glm::dvec3& source, const Patch& receiver,
+                                              std::span<const Patch* const> occluders,
+                                              double min_length, ShadowStats* stats) {
+    ShadowStats st;
+    Context c{};
+    std::vector<ShadowSegment> out;
+    const dvec3 points[1] = {source};
+    if (make_context(c, receiver, nullptr, points, occluders, min_length)) {
+        // EV events from the one point: its VE wedges through the occluders' silhouette edges
+        std::vector<ShadowSegment> raw;
+        const std::vector<EdgeGroup> groups = edge_groups(c);
+        ev_events(c, source, groups, raw, st);
+        contact_edges(c, groups, raw);
+        out = merge(c, raw);
+    }
+    st.segments = out.size();
+    if (stats) *stats += st;
+    return out;
+}
+
+std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, const Patch& receiver,
+                                        std::span<const Patch* const> occluders, double min_length,
+                                        ShadowStats* stats, const EmitterEdges& emitter) {
+    ShadowStats st;
+    auto finish = [&](std::vector<ShadowSegment> r) {
+        st.segments = r.size();
+        if (stats) *stats += st;
+        return r;
+    };
+    Context c{};
+    if (!make_context(c, receiver, &light, light.p, occluders, min_length)) return finish({});
 
     // EV events from each light point
     std::vector<ShadowSegment> raw;

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <mutex>
 #include <utility>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "abrad/radiosity/cull.h"
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/exact.h"
+#include "abrad/radiosity/point_source.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
@@ -273,6 +275,121 @@ OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh
     return out;
 }
 
+// A luminaire's light at `x` on a surface of unit normal `n` were nothing in the way (mean
+// over RGB): I(−ω)·cos θ / d².
+double unoccluded_point_irradiance(const visdb::Luminaire& lum, const glm::dvec3& x,
+                                   const glm::dvec3& n) {
+    const glm::dvec3 to = lum.position - x;
+    const double d2 = glm::dot(to, to);
+    if (!(d2 > 0.0)) return 0.0;
+    const glm::dvec3 w = to / std::sqrt(d2);
+    const double cos_theta = glm::dot(n, w);
+    return cos_theta > 0.0 ? visdb::channel_mean(lum.intensity(-w)) * cos_theta / d2 : 0.0;
+}
+
+// Shadow edges of a point source (a luminaire) on every receiver its hemicubes reached that
+// faces the point: the occluders' silhouette edges projected from the point
+// (point_shadow_edges). Occluders: the patches in the tetrahedron of the point and the
+// receiver whose plane separates the point from some of the receiver.
+void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
+                                const visdb::Luminaire& lum, OneLight& out) {
+    const glm::dvec3 source = lum.position;
+    const Patch point{{source, source, source}, 1.0};
+    std::vector<char> reached(regions.planar.size(), 0);
+    for (const std::uint32_t j : out.near)
+        if (visdb::any_positive(out.triangle[j])) reached[regions.of_triangle[j]] = 1;
+    std::mutex accumulate;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, out.near.size(), 32), [&](const auto& range) {
+            std::vector<LitSegment> here;
+            std::vector<const Patch*> occ;
+            ShadowStats s;
+            visdb::ShadowEdgeStats counts;
+            for (std::size_t ji = range.begin(); ji != range.end(); ++ji) {
+                const std::uint32_t j = out.near[ji];
+                const Patch& r = g.patches[j];
+                if (visdb::any_positive(g.emittance[j]) || !reached[regions.of_triangle[j]])
+                    continue;
+                const glm::dvec3 rn = unit_normal(r);
+                if (glm::dot(source - r.p[0], rn) <= 0.0) continue;  // the point is behind it
+                occ.clear();
+                const glm::dvec3 corners[4] = {source, r.p[0], r.p[1], r.p[2]};
+                bvh.query(Hull(corners), [&](std::uint32_t id) {
+                    if (id != j && can_occlude(g.patches[id], point, r))
+                        occ.push_back(&g.patches[id]);
+                });
+                if (occ.empty()) continue;
+                ++counts.receivers;
+                counts.occluders_added_by_bvh += occ.size();
+                // The most the point's light changes across a segment: its largest unoccluded
+                // value on the receiver and the segment
+                double f_receiver = -1.0;
+                for (const ShadowSegment& seg : point_shadow_edges(source, r, occ, 1e-6, &s)) {
+                    if (f_receiver < 0.0) {
+                        f_receiver = unoccluded_point_irradiance(lum, centroid(r), rn);
+                        for (const glm::dvec3& x : r.p)
+                            f_receiver =
+                                std::max(f_receiver, unoccluded_point_irradiance(lum, x, rn));
+                    }
+                    double f = f_receiver;
+                    for (const glm::dvec3& x : {seg.a, 0.5 * (seg.a + seg.b), seg.b})
+                        f = std::max(f, unoccluded_point_irradiance(lum, x, rn));
+                    here.push_back({j, seg, f});
+                }
+            }
+            std::lock_guard lock(accumulate);
+            out.segments.insert(out.segments.end(), here.begin(), here.end());
+            counts.edges_projected += s.edges_projected;
+            counts.shared_edges_skipped += s.shared_edges_skipped;
+            counts.segments_split += s.segments_split;
+            out.shadow += counts;
+        });
+}
+
+// Shoots from a luminaire as a point source: its two weighted hemicubes give each triangle
+// the flux it stops (patch irradiance); exact vertex irradiance without DM, shadow segments
+// from the point with DM.
+OneLight shoot_luminaire(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
+                         const visdb::Luminaire& lum, const BakeOptions& options) {
+    OneLight out;
+    const auto t0 = Clock::now();
+    // Receivers: every triangle, or those whose centroid is within the reach (cull.h)
+    for (std::size_t j = 0; j < g.patches.size(); ++j) {
+        const glm::dvec3 d = glm::abs(centroid(g.patches[j]) - lum.position);
+        if (options.reach <= 0.0 ||
+            (d.x <= options.reach && d.y <= options.reach && d.z <= options.reach))
+            out.near.push_back(static_cast<std::uint32_t>(j));
+    }
+    out.near_vertices = vertices_of(out.near, g.mesh.triangles);
+    ShootOptions so{.method = options.method, .subpixels = options.subpixels, .occlusion = false};
+    so.only = &out.near;
+    out.triangle.assign(g.patches.size(), visdb::Rgb(0.0));
+    const visdb::Rgb power = luminaire_power(lum);
+    for (const PointShooter& shooter : point_shooters(lum, options.resolution)) {
+        const ShootResult shot = shoot(shooter.frame, g.patches, shooter.hemicube, so);
+        out.shoot.form_factor_sum += add_patch_irradiance(shot, power, 1.0, g, out.triangle);
+        out.shoot.fragments += shot.fragments;
+        out.shoot.undersampled_fragments += shot.undersampled_pixels;
+    }
+    out.shoot.seconds_cpu = seconds_since(t0);
+
+    const auto t1 = Clock::now();
+    if (options.shading == Shading::Exact && !options.dm) {
+        out.vertex.assign(g.mesh.positions.size(), visdb::Rgb(0.0));
+        tbb::parallel_for(std::size_t{0}, out.near_vertices.size(), [&](std::size_t vi) {
+            const std::uint32_t v = out.near_vertices[vi];
+            out.vertex[v] = point_source_irradiance(lum, g.patches, bvh, g.mesh.positions[v],
+                                                    glm::dvec3(g.mesh.normals[v]));
+        });
+    }
+    out.exact.seconds_cpu = seconds_since(t1);
+
+    const auto t2 = Clock::now();
+    if (options.dm) project_point_shadow_edges(g, regions, bvh, lum, out);
+    out.shadow.seconds_cpu = seconds_since(t2);
+    return out;
+}
+
 // Per light (index into g.lights): the edges it shares with another triangle of its emitter
 // (the same planar region, so one surface and one plane, and the same emittance), across
 // which the emitter's light is continuous: they cast no shadow edge.
@@ -331,21 +448,23 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     shots.vertex_irradiance.assign(nv, visdb::Rgb(0.0));
     shots.segments.resize(options.dm ? nt : 0);
     shots.lights_of_triangle.resize(options.dm ? nt : 0);
+    shots.luminaires_of_triangle.resize(options.dm ? nt : 0);
     visdb::ShootStats shoot_stats;
     visdb::ExactShadeStats exact_stats;
     visdb::ShadowEdgeStats shadow_stats;
     std::mutex accumulate;
     std::size_t done = 0;
     std::vector<LitSegment> lit;
-    if (progress) progress("shoot", 0, g.lights.size());
     const std::vector<EmitterEdges> emitter =
         options.dm ? emitter_edges(g, regions) : std::vector<EmitterEdges>(g.lights.size());
 
-    tbb::parallel_for(std::size_t{0}, g.lights.size(), [&](std::size_t li) {
-        const std::uint32_t l = g.lights[li];
-        const OneLight one = shoot_one(g, regions, bvh, hemicube, l, emitter[li], options);
-        // The light's receivers and their vertices are the only non-zero entries
-        std::lock_guard lock(accumulate);
+    const std::size_t sources = g.lights.size() + g.luminaires.size();
+    // Adds one source's shot to the totals (under the lock)
+    // (`light`: an area light's triangle, whose hemicube from the centroid may miss a receiver
+    // it lights; a luminaire's two hemicubes see every direction)
+    auto add = [&](const OneLight& one, std::vector<std::vector<std::uint32_t>>& sources_of,
+                   std::uint32_t source, const Patch* light) {
+        // The source's receivers and their vertices are the only non-zero entries
         for (const std::uint32_t j : one.near) shots.triangle_irradiance[j] += one.triangle[j];
         if (exact_vertices)
             for (const std::uint32_t v : one.near_vertices)
@@ -354,14 +473,26 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
         if (options.dm)
             for (const std::uint32_t j : one.near)
                 if (visdb::any_positive(one.triangle[j]) ||
-                    unseen_from_centroid(g.patches[l], g.patches[j]))
-                    shots.lights_of_triangle[j].push_back(l);
+                    (light && unseen_from_centroid(*light, g.patches[j])))
+                    sources_of[j].push_back(source);
         shoot_stats += one.shoot;
         exact_stats += one.exact;
         shadow_stats += one.shadow;
         ++done;
-        if (progress) progress("shoot", done, g.lights.size());
+        if (progress) progress("shoot", done, sources);
+    };
+    if (progress) progress("shoot", 0, sources);
+    tbb::parallel_for(std::size_t{0}, g.lights.size(), [&](std::size_t li) {
+        const std::uint32_t l = g.lights[li];
+        const OneLight one = shoot_one(g, regions, bvh, hemicube, l, emitter[li], options);
+        std::lock_guard lock(accumulate);
+        add(one, shots.lights_of_triangle, l, &g.patches[l]);
     });
+    // Luminaires one after the other (each shades and casts in parallel)
+    for (std::size_t k = 0; k < g.luminaires.size(); ++k) {
+        const OneLight one = shoot_luminaire(g, regions, bvh, g.luminaires[k], options);
+        add(one, shots.luminaires_of_triangle, static_cast<std::uint32_t>(k), nullptr);
+    }
 
     if (options.dm) shadow_stats.segments_weak = keep_strong(lit, shots);
 
@@ -372,13 +503,15 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
             emitted += visdb::channel_mean(g.emittance[l]) * g.area[l];
             light_area += g.area[l];
         }
+        for (const visdb::Luminaire& lum : g.luminaires)
+            emitted += visdb::channel_mean(luminaire_power(lum));
         for (std::size_t t = 0; t < nt; ++t)
             received += visdb::channel_mean(shots.triangle_irradiance[t]) * g.area[t];
         stats->light_triangles = g.lights.size();
         stats->light_area_m2 = light_area;
         stats->shoot = shoot_stats;
         stats->mean_form_factor_sum =
-            shoot_stats.form_factor_sum / static_cast<double>(g.lights.size());
+            sources > 0 ? shoot_stats.form_factor_sum / static_cast<double>(sources) : 0.0;
         stats->emitted_power_w = emitted;
         stats->received_power_w = received;
         if (options.dm) {

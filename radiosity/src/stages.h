@@ -44,6 +44,7 @@ struct BakeGeometry {
     std::vector<visdb::Rgb> reflectance;                  ///< per triangle
     std::vector<std::uint32_t> incident_start, incident;  ///< triangles around each vertex
     std::vector<std::uint32_t> lights;                    ///< emitting triangles, ascending
+    std::vector<visdb::Luminaire> luminaires;             ///< point sources (photometric files)
 };
 
 /// Planar regions: edge- or vertex-connected triangles of one surface and one plane.
@@ -63,6 +64,9 @@ struct LightShots {
     /// exact irradiance on a region asks only these lights (a light that reaches no triangle of
     /// a region through any hemicube sample adds nothing there).
     std::vector<std::vector<std::uint32_t>> lights_of_triangle;
+    /// Per triangle, the luminaires (indices into BakeGeometry::luminaires) whose hemicubes
+    /// gave it some light, ascending (DM only), for the same purpose.
+    std::vector<std::vector<std::uint32_t>> luminaires_of_triangle;
 };
 
 /// The discontinuity mesh with the exact direct irradiance at its vertices.
@@ -73,11 +77,13 @@ struct DiscontinuityMesh {
 };
 
 /// The scene's triangles as one mesh whose vertices are split by surface and face normal.
-/// Degenerate triangles are dropped and counted. Throws InputError for a surface without a
-/// material, a scene without triangles or without lights.
+/// Degenerate triangles are dropped and counted; the scene's luminaires are kept as point
+/// sources. Throws InputError for a surface without a material, a scene without triangles or
+/// without lights (neither an emitting triangle nor a luminaire).
 BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats);
 
-/// `mesh`'s triangles described for shooting and shading (materials from `scene`).
+/// `mesh`'s triangles described for shooting and shading (materials and luminaires from
+/// `scene`).
 BakeGeometry describe_mesh(const visdb::Scene& scene, visdb::BakeMesh mesh);
 
 /// The planar regions of `g` (its vertices are already split by surface and normal, so

@@ -1,16 +1,22 @@
 // [[luminaire]] through the command line: the import reports each luminaire's flux against its
-// lamps and stores it (abrad info lists it), the bake refuses a scene with luminaires until it
-// can shoot them, and a malformed photometric file fails the import (exit 2) naming its line
-// and field with the database unchanged.
+// lamps and stores it (abrad info lists it), the bake lights with it (a scene lit only by
+// luminaires), a malformed photometric file fails the import (exit 2) naming its line and
+// field with the database unchanged, and the furnished room sample lit by downlights from an
+// IES file imports, bakes, exports and probes to the closed form.
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
+#include <glm/geometric.hpp>
+#include <numbers>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "../radiosity/mesh_checks.h"
+#include "bake_readers.h"
 #include "run_abrad.h"
 #include "temp_dir.h"
 
@@ -19,6 +25,8 @@ namespace {
 namespace fs = std::filesystem;
 
 using abrad::testing::file_bytes;
+using abrad::testing::probe_rows;
+using abrad::testing::read_ply;
 using abrad::testing::run_abrad;
 using abrad::testing::TempDir;
 
@@ -29,7 +37,7 @@ const char* const kFloor = "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nf 1 2 3 4\n";
 const char* const kIes =
     "IESNA:LM-63-2002\nTILT=NONE\n1 1000 1 3 1 1 2 0 0 0\n1 1 10\n0 45 90\n0\n100 100 100\n";
 
-TEST(LuminaireCli, ImportReportsStoresAndBakeRefuses) {
+TEST(LuminaireCli, ImportReportsStoresAndBakes) {
     const TempDir dir("luminaire");
     fs::create_directories(dir / "model");
     const fs::path floor = dir.write("model/floor.obj", kFloor);
@@ -50,13 +58,11 @@ TEST(LuminaireCli, ImportReportsStoresAndBakeRefuses) {
     EXPECT_NE(info.output.find("luminaires (1):\n  L: "), std::string::npos) << info.output;
     EXPECT_NE(info.output.find("628.3"), std::string::npos) << info.output;
 
-    const std::string before = file_bytes(db);
-    const auto bake = run_abrad("bake --db " + db);
-    EXPECT_EQ(bake.status, 2) << bake.output;
-    EXPECT_NE(bake.output.find("1 luminaire(s) from photometric files (first 'L')"),
-              std::string::npos)
-        << bake.output;
-    EXPECT_EQ(file_bytes(db), before);
+    // The floor has no emitting surface: the luminaire alone lights the bake
+    const auto bake = run_abrad("bake --db " + db + " --bounces 0");
+    EXPECT_EQ(bake.status, 0) << bake.output;
+    const auto baked = run_abrad("info --db " + db);
+    EXPECT_NE(baked.output.find("bake-1"), std::string::npos) << baked.output;
 }
 
 TEST(LuminaireCli, MalformedPhotometricFileFailsTheImport) {
@@ -124,6 +130,103 @@ TEST(LuminaireCli, ProbeGivesThePointSourceClosedForm) {
         ++checked;
     }
     EXPECT_EQ(checked, xs.size()) << r.output;
+}
+
+// The web of an IES file with one horizontal angle (a rotationally symmetric type C web):
+// its vertical angles and candela, read from the file's last three lines.
+struct SymmetricWeb {
+    std::vector<double> gamma, cd;
+    /// Linear in γ (degrees), 0 past the last angle.
+    double at(double g) const {
+        for (std::size_t i = 0; i + 1 < gamma.size(); ++i)
+            if (g <= gamma[i + 1])
+                return cd[i] + (cd[i + 1] - cd[i]) * (g - gamma[i]) / (gamma[i + 1] - gamma[i]);
+        return 0.0;
+    }
+};
+
+SymmetricWeb read_symmetric_ies(const std::string& text) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string l; std::getline(in, l);)
+        if (!l.empty()) lines.push_back(l);
+    auto numbers = [](const std::string& l) {
+        std::vector<double> v;
+        std::istringstream f(l);
+        for (double x; f >> x;) v.push_back(x);
+        return v;
+    };
+    return {numbers(lines.at(lines.size() - 3)), numbers(lines.at(lines.size() - 1))};
+}
+
+// The furnished room sample lit by three downlights (samples/furnished_room/downlights.toml,
+// downlight.ies) instead of its panels: import, a direct-light bake whose exported vertices
+// carry the closed form I(γ)·cos θ/d², the default bake (interreflection: the probe gets more
+// than the direct light), and probes against the closed form.
+TEST(LuminaireCli, RoomLitByDownlightsImportsBakesExportsAndProbes) {
+    const TempDir dir("luminaire");
+    const std::string samples = ABRAD_SAMPLES;
+    const std::string db = dir.file("room.visdb");
+    const auto imported =
+        run_abrad("import " + samples + "/furnished_room/furnished_room.obj --scene " + samples +
+                  "/furnished_room/downlights.toml --db " + db);
+    ASSERT_EQ(imported.status, 0) << imported.output;
+    EXPECT_NE(imported.output.find("luminaire 'downlight"), std::string::npos) << imported.output;
+    const SymmetricWeb web =
+        read_symmetric_ies(file_bytes(samples + "/furnished_room/downlight.ies"));
+    ASSERT_EQ(web.gamma.size(), web.cd.size());
+
+    // The closed form at a point facing up, from the three downlights (maintenance factor 0.8)
+    const std::vector<glm::dvec3> lights = {{1.5, 2.5, 2.99}, {3.0, 2.5, 2.99}, {4.5, 2.5, 2.99}};
+    auto direct = [&](const glm::dvec3& x) {
+        double e = 0.0;
+        for (const glm::dvec3& l : lights) {
+            const double d = glm::length(l - x), cos_t = (l.z - x.z) / d;
+            e += 0.8 * web.at(std::acos(cos_t) * 180.0 / std::numbers::pi) * cos_t / (d * d);
+        }
+        return e;
+    };
+    // The table top's centre and a floor point clear of the furniture's shadows
+    const std::vector<glm::dvec3> points = {{3.0, 2.5, 0.75}, {5.0, 1.0, 0.0}};
+    const fs::path csv = dir.write("points.csv", "x,y,z,nx,ny,nz\n3,2.5,0.75,0,0,1\n5,1,0,0,0,1\n");
+
+    // Direct light only: the probe and every exported vertex of the table top, exact
+    ASSERT_EQ(run_abrad("bake --db " + db + " --bounces 0 --name direct").status, 0);
+    const auto probed = run_abrad("probe --db " + db + " --bake direct --points " + csv.string());
+    ASSERT_EQ(probed.status, 0) << probed.output;
+    const std::vector<double> probe = probe_rows(probed.output);
+    ASSERT_EQ(probe.size(), points.size()) << probed.output;
+    for (std::size_t i = 0; i < points.size(); ++i)
+        EXPECT_NEAR(probe[i], direct(points[i]), 1e-6 * direct(points[i])) << i;
+    const fs::path ply = dir / "direct.ply";
+    ASSERT_EQ(run_abrad("export --db " + db + " --bake direct --output " + ply.string()).status, 0);
+    const abrad::visdb::BakeMesh mesh = read_ply(file_bytes(ply));
+    std::size_t on_table = 0;
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+        const glm::dvec3 x = mesh.positions[v];
+        if (std::abs(x.z - 0.75) > 1e-9 || mesh.normals[v].z < 0.99 || x.x < 2.2 || x.x > 3.8 ||
+            x.y < 2.1 || x.y > 2.9)
+            continue;
+        ++on_table;
+        EXPECT_NEAR(mesh.irradiance[v].y, direct(x), 1e-5 * direct(x)) << x.x << " " << x.y;
+    }
+    EXPECT_GE(on_table, 4u);
+    const std::optional<double> centre = abrad::testing::gouraud_at(mesh, points[0], {0, 0, 1});
+    ASSERT_TRUE(centre.has_value());
+    EXPECT_NEAR(*centre, direct(points[0]), 0.02 * direct(points[0]));
+
+    // The default bake: the room's reflections add to the direct light
+    const auto full = run_abrad("bake --db " + db + " --name full");
+    ASSERT_EQ(full.status, 0) << full.output;
+    const auto with_indirect =
+        run_abrad("probe --db " + db + " --bake full --points " + csv.string());
+    ASSERT_EQ(with_indirect.status, 0) << with_indirect.output;
+    const std::vector<double> total = probe_rows(with_indirect.output);
+    ASSERT_EQ(total.size(), points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        EXPECT_GT(total[i], 1.05 * direct(points[i])) << i;
+        EXPECT_LT(total[i], 2.0 * direct(points[i])) << i;
+    }
 }
 
 }  // namespace

@@ -60,6 +60,12 @@ visdb::Rgb point_source_irradiance(const visdb::Luminaire& luminaire,
                                    std::span<const Patch> patches, const Bvh& bvh,
                                    const glm::dvec3& x, const glm::dvec3& n);
 
+/// Σ point_source_irradiance over `luminaires`; with `reach` > 0 metres, luminaires farther
+/// than `reach` from `x` along some axis are skipped (as light triangles are, cull.h).
+visdb::Rgb luminaires_irradiance(std::span<const visdb::Luminaire> luminaires,
+                                 std::span<const Patch> patches, const Bvh& bvh,
+                                 const glm::dvec3& x, const glm::dvec3& n, double reach = 0.0);
+
 class DirectField {
   public:
     /// Prepares the scene's triangles and luminaires; throws InputError when the scene has

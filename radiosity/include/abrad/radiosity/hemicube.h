@@ -13,6 +13,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <glm/vec3.hpp>
 #include <string>
 #include <vector>
@@ -47,6 +48,13 @@ class Hemicube {
   public:
     explicit Hemicube(int resolution);
 
+    /// A hemicube of resolution R whose pixels carry `intensity(ω)`·Δω instead of delta form
+    /// factors: ω a unit direction in the shooter frame's local coordinates, Δω the pixel's
+    /// exact solid angle (sr), the intensity sampled at 4 × 4 points of the pixel, each
+    /// weighted by its own solid angle. A point source shot through it stops, on each patch,
+    /// the power it sends there (in the intensity's units times sr: cd·sr = lm).
+    Hemicube(int resolution, const std::function<double(const glm::dvec3&)>& intensity);
+
     int resolution() const { return m_resolution; }
     /// Pixel columns and rows of a face.
     int width(int /*face*/) const { return m_resolution; }
@@ -58,6 +66,10 @@ class Hemicube {
     /// Delta form factor of a flat pixel index.
     double delta(std::size_t pixel) const { return m_delta[pixel]; }
     const std::vector<double>& deltas() const { return m_delta; }
+    /// Multiplies every pixel's weight by `factor` (normalizing a weighted hemicube).
+    void scale(double factor) {
+        for (double& d : m_delta) d *= factor;
+    }
 
     /// Pixel coordinates (X, Y) in [0, width] × [0, height] of a projected point (sx/d, sy/d).
     double pixel_x(double a) const { return (a + 1.0) * 0.5 * m_resolution; }

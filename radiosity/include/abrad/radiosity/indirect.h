@@ -40,6 +40,9 @@ struct IndirectInput {
     std::span<const visdb::Rgb> emittance;      ///< > 0 marks a light-source triangle
     std::span<const std::uint32_t> region;      ///< planar region of each triangle
     std::span<const glm::dvec3> region_normal;  ///< unit front normal of each region
+    /// Point sources (point_source.h): each shoots first, like a light triangle, through two
+    /// hemicubes weighted by its web, so its flux feeds the interreflection.
+    std::span<const visdb::Luminaire> luminaires = {};
 };
 
 struct IndirectOptions {
@@ -72,7 +75,8 @@ struct ConvergenceSample {
 };
 
 /// Energy bookkeeping of the whole solution (direct shots from the lights included), in W
-/// (or lm), mean over RGB. emitted = absorbed + escaped + unshot, up to rounding.
+/// (or lm), mean over RGB; a luminaire emits luminaire_power (its web's flux × scale ×
+/// maintenance factor). emitted = absorbed + escaped + unshot, up to rounding.
 struct EnergyBalance {
     double emitted = 0.0;
     double absorbed = 0.0;  ///< by fronts ((1 − ρ) of what they receive) and by backs (all)
@@ -148,10 +152,11 @@ struct IndirectSolution {
 /// throws InputError naming the option.
 void validate(const IndirectOptions& options);
 
-/// Solves the interreflection of `input`: shoots once from every light triangle onto the
-/// elements, then from the elements until `bounces` bounces are done or the fraction left
-/// (IndirectOptions::converge) is below `converge`. Throws InputError when there is no light.
-/// Progress labels carry the fraction left: "interreflection: shots (left 1.2%, target 0.5%)".
+/// Solves the interreflection of `input`: shoots once from every light triangle and every
+/// luminaire onto the elements, then from the elements until `bounces` bounces are done or the
+/// fraction left (IndirectOptions::converge) is below `converge`. Throws InputError when there
+/// is no light. Progress labels carry the fraction left: "interreflection: shots (left 1.2%,
+/// target 0.5%)".
 IndirectSolution solve_indirect(const IndirectInput& input, const IndirectOptions& options,
                                 const ProgressFn& progress = {});
 

@@ -67,4 +67,16 @@ std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, co
                                         double min_length = 1e-9, ShadowStats* stats = nullptr,
                                         const EmitterEdges& emitter = {});
 
+/// The shadow edges that `occluders` cast on `receiver` from a point source at `source` (a
+/// luminaire): the central projection from the point of the occluders' silhouette edges (the
+/// VE wedge through the point and each edge), clipped to the receiver, with the parts hidden
+/// by other opaque occluders removed; and the contact edges, where an occluder face standing
+/// on the receiver's plane meets it (a box on a floor: the light stops there whatever the
+/// point's place). Shared edges and `min_length` as shadow_edges; the caller checks that the
+/// receiver faces the point.
+std::vector<ShadowSegment> point_shadow_edges(const glm::dvec3& source, const Patch& receiver,
+                                              std::span<const Patch* const> occluders,
+                                              double min_length = 1e-9,
+                                              ShadowStats* stats = nullptr);
+
 }  // namespace abrad::radiosity
