@@ -9,7 +9,12 @@
 #                  POV-Ray's own point lights; direct light only unless --bounces)
 #
 # and writes own_vs_pov.png and baked_vs_reference.png (A | B | 4 x |A - B|, tone-mapped),
-# the difference EXRs, own.png and summary.txt (PSNRs and times) into OUTDIR.
+# the difference EXRs, own.png, baked_pov.png and summary.txt (PSNRs and times) into OUTDIR.
+# POV-Ray writes the linear images as OpenEXR (+FE), e.g. for the `pov` export:
+#   povray +Ibaked.pov +Obaked_pov.exr +FE +W320 +H240 -A -D
+# and baked_pov.png from the tone-mapped variant (`abrad export --format pov --pov-tone-map`):
+#   povray +Ibaked_png.pov +Obaked_pov.png +FN +W320 +H240 -A -D
+# (a PNG of the linear `pov` export clips every value over 1).
 # Exit status: 0 both comparisons within their thresholds, 1 a comparison failed or a step
 # broke (the images stay in OUTDIR for a person to look at), 2 usage.
 #
@@ -42,7 +47,7 @@ bake_extra=""
 bounces=0
 quality=medium
 bake_extra_given=0
-usage() { sed -n '2,25p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,35p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 args=()
 while (($#)); do
     case "$1" in
@@ -108,7 +113,9 @@ step() {  # step NAME CMD...: runs CMD with its output in the log, stops on fail
 }
 # POV-Ray in OUTDIR (a povray.ini elsewhere does not leak in), linear OpenEXR, no antialiasing
 povray_render() {
-    (cd "$out" && povray "+I$1" "+O$2" +FE "+W$width" "+H$height" -A -D -V +L/usr/share/povray-3.7/include)
+    local format=+FE
+    [[ $2 == *.png ]] && format=+FN
+    (cd "$out" && povray "+I$1" "+O$2" "$format" "+W$width" "+H$height" -A -D -V +L/usr/share/povray-3.7/include)
 }
 
 db="$out/$sample.visdb"
@@ -118,6 +125,8 @@ t=$(now); step bake "$abrad" bake --db "$db" --name direct "${bake_opts[@]}"; t_
 view=(--width "$width" --height "$height")
 step export-pov "$abrad" export --db "$db" --format pov --output "$out/baked.pov" "${view[@]}"
 t=$(now); step povray-baked povray_render baked.pov baked_pov.exr; t_pov=$(elapsed "$t")
+step export-pov-png "$abrad" export --db "$db" --format pov --pov-tone-map --output "$out/baked_png.pov" "${view[@]}"
+step povray-baked-png povray_render baked_png.pov baked_pov.png
 t=$(now); step render "$abrad" render --db "$db" --output "$out/own.exr" "${view[@]}"; t_own=$(elapsed "$t")
 step render-png "$abrad" render --db "$db" --output "$out/own.png" "${view[@]}"
 step render-false-colour "$abrad" render --db "$db" --output "$out/irradiance.png" --false-colour "${view[@]}"

@@ -6,6 +6,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <vector>
 
 #include "abrad/export/writers.h"
 #include "output.h"
@@ -31,8 +32,29 @@ void append_le(std::string& out, T value) {
 struct Frame {
     UpAxis up = UpAxis::Z;
     bool float_positions = false;
-    glm::dvec3 origin{0.0};  ///< in the file's frame; zero for double positions
+    glm::dvec3 origin{0.0};                      ///< in the file's frame; zero for double positions
+    std::vector<std::int32_t> vertex_surface{};  ///< surface ids on the vertices, when not empty
 };
+
+/// Each vertex's surface (-1 for a vertex no triangle uses). Throws ExportError naming `path`
+/// for a vertex that triangles of two surfaces share.
+std::vector<std::int32_t> vertex_surfaces(const std::filesystem::path& path,
+                                          const visdb::BakeMesh& mesh) {
+    std::vector<std::int32_t> out(mesh.positions.size(), -1);
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        // validate_bake_mesh checked that ids fit an int
+        const auto s = static_cast<std::int32_t>(mesh.triangle_surface[t]);
+        for (int k = 0; k < 3; ++k) {
+            std::int32_t& v = out[mesh.triangles[t][k]];
+            if (v >= 0 && v != s)
+                detail::fail(path, "vertex " + std::to_string(mesh.triangles[t][k]) +
+                                       " is shared by surfaces " + std::to_string(v) + " and " +
+                                       std::to_string(s) + ": surface ids cannot go on vertices");
+            v = s;
+        }
+    }
+    return out;
+}
 
 /// The header of the contract for `n` vertices and `m` faces.
 std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options,
@@ -76,10 +98,11 @@ std::string ply_header(std::size_t n, std::size_t m, const PlyOptions& options,
          "property float radiosity_r\n"
          "property float radiosity_g\n"
          "property float radiosity_b\n";
+    if (options.surface_ids == PlySurfaceIds::Vertex) h += "property int surface\n";
     h += "element face " + std::to_string(m) + "\n";
-    h += "property list uchar int vertex_indices\n"
-         "property int surface\n"
-         "end_header\n";
+    h += "property list uchar int vertex_indices\n";
+    if (options.surface_ids == PlySurfaceIds::Face) h += "property int surface\n";
+    h += "end_header\n";
     return h;
 }
 
@@ -101,6 +124,7 @@ void append_vertex_binary(std::string& out, const visdb::BakeMesh& mesh, std::si
     for (const auto c : rgb) append_le(out, c);
     for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(h[k]));
     for (int k = 0; k < 3; ++k) append_le(out, static_cast<float>(b[k]));
+    if (!frame.vertex_surface.empty()) append_le(out, frame.vertex_surface[i]);
 }
 
 /// Appends one vertex's line in the ASCII body, with round-trip precision.
@@ -131,6 +155,7 @@ void append_vertex_ascii(std::string& out, const visdb::BakeMesh& mesh, std::siz
     for (const auto c : rgb) put(c);
     for (int k = 0; k < 3; ++k) put(static_cast<float>(h[k]));
     for (int k = 0; k < 3; ++k) put(static_cast<float>(b[k]));
+    if (!frame.vertex_surface.empty()) out += ' ' + std::to_string(frame.vertex_surface[i]);
     out += '\n';
 }
 
@@ -144,6 +169,8 @@ void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, c
     Frame frame{.up = options.up, .float_positions = options.positions == PlyPositions::Float};
     if (frame.float_positions)
         frame.origin = detail::to_up(visdb::local_origin(mesh.positions), options.up);
+    const bool ids_on_faces = options.surface_ids == PlySurfaceIds::Face;
+    if (!ids_on_faces) frame.vertex_surface = vertex_surfaces(path, mesh);
 
     detail::AtomicFile file(path);
     std::string buf = ply_header(mesh.positions.size(), mesh.triangles.size(), options, frame);
@@ -159,18 +186,20 @@ void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, c
         file.write_if_full(buf);
     }
 
-    // Write the face element: `3 a b c surface`
+    // Write the face element: `3 a b c surface`, or `3 a b c`
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const auto& tri = mesh.triangles[t];
         // validate_bake_mesh checked that indices and ids fit an int
         const auto surface = static_cast<std::int32_t>(mesh.triangle_surface[t]);
         if (options.ascii) {
             buf += "3 " + std::to_string(tri[0]) + ' ' + std::to_string(tri[1]) + ' ' +
-                   std::to_string(tri[2]) + ' ' + std::to_string(surface) + '\n';
+                   std::to_string(tri[2]);
+            if (ids_on_faces) buf += ' ' + std::to_string(surface);
+            buf += '\n';
         } else {
             append_le(buf, std::uint8_t{3});
             for (int k = 0; k < 3; ++k) append_le(buf, static_cast<std::int32_t>(tri[k]));
-            append_le(buf, surface);
+            if (ids_on_faces) append_le(buf, surface);
         }
         file.write_if_full(buf);
     }

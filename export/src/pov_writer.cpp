@@ -61,14 +61,23 @@ std::string preamble(const std::filesystem::path& path, const PovView& view,
     std::string out;
     out += "// abrad: ";
     out += what;
-    out += "\n// Render (linear OpenEXR, values = Abrad_Exposure x radiosity):\n//   povray +I";
+    if (view.tone_mapped) {
+        out += "\n// Render (8-bit sRGB PNG, colours = 1 - exp(-exposure x radiosity), exposure ";
+        append_exact(out, view.exposure);
+        out += "):\n//   povray +I";
+    } else {
+        out += "\n// Render (linear OpenEXR, values = Abrad_Exposure x radiosity):\n//   povray +I";
+    }
     out += path.filename().string();
-    out += " +O" + path.stem().string() + ".exr +FE +W" + std::to_string(view.width) + " +H" +
-           std::to_string(view.height) + " -A -D\n";
+    out += " +O" + path.stem().string() + (view.tone_mapped ? ".png +FN" : ".exr +FE") + " +W" +
+           std::to_string(view.width) + " +H" + std::to_string(view.height) + " -A -D\n";
     out += "// Frame: abrad's, Z up, metres; camera '" + comment_name(view.camera.name) + "'.\n";
-    out += "#version 3.7;\n#ifndef (Abrad_Exposure)\n  #declare Abrad_Exposure = ";
-    append_exact(out, view.exposure);
-    out += ";\n#end\n";
+    out += "#version 3.7;\n";
+    if (!view.tone_mapped) {
+        out += "#ifndef (Abrad_Exposure)\n  #declare Abrad_Exposure = ";
+        append_exact(out, view.exposure);
+        out += ";\n#end\n";
+    }
     out += "background { rgb 0 }\ncamera {\n  perspective\n  location ";
     append_vector(out, f.eye);
     out += "\n  direction ";
@@ -88,14 +97,19 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
     detail::validate_bake_mesh(path, mesh);
     std::string out;
     try {
-        out = preamble(
-            path, view,
-            "baked radiosity shown unlit, Gouraud-interpolated (abrad export --format pov)");
+        out = preamble(path, view,
+                       view.tone_mapped
+                           ? "baked radiosity tone-mapped per vertex, shown unlit, "
+                             "Gouraud-interpolated (abrad export --format pov --pov-tone-map)"
+                           : "baked radiosity shown unlit, Gouraud-interpolated (abrad export "
+                             "--format pov)");
     } catch (const std::invalid_argument& e) {
         detail::fail(path, e.what());
     }
     out += "global_settings { assumed_gamma 1.0 ambient_light 0 max_trace_level 1 }\n";
-    out += "#declare Abrad_Finish = finish { ambient 0 diffuse 0 emission Abrad_Exposure }\n";
+    out += view.tone_mapped
+               ? "#declare Abrad_Finish = finish { ambient 0 diffuse 0 emission 1 }\n"
+               : "#declare Abrad_Finish = finish { ambient 0 diffuse 0 emission Abrad_Exposure }\n";
     // A bake shades the front of each face only: backs are black, as in abrad render
     out +=
         "#declare Abrad_Back = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 emission 0 "
@@ -142,7 +156,12 @@ void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
             out += ",\n    texture{pigment{rgb<";
             for (int c = 0; c < 3; ++c) {
                 if (c) out += ',';
-                append_exact(out, std::isfinite(b[c]) && b[c] > 0.0f ? b[c] : 0.0f);
+                const float value = std::isfinite(b[c]) && b[c] > 0.0f ? b[c] : 0.0f;
+                if (view.tone_mapped)
+                    append_exact(out, static_cast<float>(
+                                          tone_value(value, ToneMap{.exposure = view.exposure})));
+                else
+                    append_exact(out, value);
             }
             out += ">}finish{Abrad_Finish}}";
             file.write_if_full(out);

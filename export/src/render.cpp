@@ -16,19 +16,54 @@ namespace abrad::exporter {
 
 namespace {
 
-// Distance along +z from `origin` to the nearest ceiling above it: a non-emitting triangle whose
-// front faces down (Möller–Trumbore with the ray fixed to +z), or infinity. Luminaires and
-// objects facing up (a table top seen from under it) are not ceilings.
-double distance_above(const visdb::Scene& scene, const glm::dvec3& origin) {
+/// The part of a floor's bounding box (xy) a ceiling's downward-facing faces must span.
+constexpr double kCeilingCoverage = 0.5;
+
+// The xy bounding box of a set of points (empty while lo > hi).
+struct Box2 {
+    glm::dvec2 lo{std::numeric_limits<double>::infinity()};
+    glm::dvec2 hi{-std::numeric_limits<double>::infinity()};
+    void add(const glm::dvec3& p) {
+        lo = glm::min(lo, glm::dvec2(p));
+        hi = glm::max(hi, glm::dvec2(p));
+    }
+    double area() const { return lo.x < hi.x && lo.y < hi.y ? (hi.x - lo.x) * (hi.y - lo.y) : 0.0; }
+};
+
+// The fraction of `floor`'s area that `b` covers.
+double coverage(const Box2& b, const Box2& floor) {
+    Box2 common;
+    common.lo = glm::max(b.lo, floor.lo);
+    common.hi = glm::min(b.hi, floor.hi);
+    const double a = floor.area();
+    return a > 0.0 ? common.area() / a : 0.0;
+}
+
+bool faces_down(const visdb::TriangleMesh& m, const glm::u32vec3& t) {
+    const glm::dvec3& a = m.positions[t.x];
+    return glm::cross(m.positions[t.y] - a, m.positions[t.z] - a).z < 0.0;
+}
+
+// Distance along +z from `origin` to the ceiling above it, or infinity. A ceiling is a
+// non-emitting triangle whose front faces down (Möller–Trumbore with the ray fixed to +z) on a
+// surface whose downward-facing part spans at least half of `floor`'s bounding box (xy): the
+// underside of a table top or a shelf board over the floor's centre spans a small part of the
+// room, and the ray passes it. Luminaires and faces looking up are not ceilings.
+double ceiling_above(const visdb::Scene& scene, const glm::dvec3& origin, const Box2& floor) {
     double best = std::numeric_limits<double>::infinity();
     const glm::dvec3 dir(0.0, 0.0, 1.0);
     for (const auto& s : scene.surfaces) {
         if (s.material < scene.materials.size() && scene.materials[s.material].is_emitter())
             continue;
+        Box2 down;
+        for (const auto& t : s.mesh.triangles)
+            if (faces_down(s.mesh, t))
+                for (int k = 0; k < 3; ++k) down.add(s.mesh.positions[t[k]]);
+        if (coverage(down, floor) < kCeilingCoverage) continue;
         for (const auto& t : s.mesh.triangles) {
+            if (!faces_down(s.mesh, t)) continue;
             const glm::dvec3& a = s.mesh.positions[t.x];
             const glm::dvec3 e1 = s.mesh.positions[t.y] - a, e2 = s.mesh.positions[t.z] - a;
-            if (glm::cross(e1, e2).z >= 0.0) continue;  // faces up or sideways
             const glm::dvec3 p = glm::cross(dir, e2);
             const double det = glm::dot(e1, p);
             if (std::abs(det) < 1e-14) continue;
@@ -85,8 +120,7 @@ visdb::Camera default_camera(const visdb::Scene& scene) {
     struct Floor {
         double area = 0.0;
         glm::dvec3 centroid{0.0};
-        glm::dvec2 min{std::numeric_limits<double>::infinity()},
-            max{-std::numeric_limits<double>::infinity()};
+        Box2 box;
     };
     std::vector<Floor> floors;
     for (const auto& s : scene.surfaces) {
@@ -102,10 +136,7 @@ visdb::Camera default_camera(const visdb::Scene& scene) {
             const double area = 0.5 * len;
             f.area += area;
             f.centroid += area * (a + b + c) / 3.0;
-            for (const auto* p : {&a, &b, &c}) {
-                f.min = glm::min(f.min, glm::dvec2(*p));
-                f.max = glm::max(f.max, glm::dvec2(*p));
-            }
+            for (const auto* p : {&a, &b, &c}) f.box.add(*p);
         }
         if (f.area > 0.0) {
             f.centroid /= f.area;
@@ -118,9 +149,9 @@ visdb::Camera default_camera(const visdb::Scene& scene) {
     // The largest floor with a ceiling above its centroid is the room
     for (std::size_t i = 0; i < floors.size() && i < 16; ++i) {
         const Floor& f = floors[i];
-        const double h = distance_above(scene, f.centroid + glm::dvec3(0.0, 0.0, 1e-4));
+        const double h = ceiling_above(scene, f.centroid + glm::dvec3(0.0, 0.0, 1e-4), f.box);
         if (!std::isfinite(h) || h < 0.5) continue;
-        const glm::dvec3 corner(f.min.x, f.min.y, f.centroid.z);
+        const glm::dvec3 corner(f.box.lo.x, f.box.lo.y, f.centroid.z);
         cam.position = f.centroid + 0.75 * (corner - f.centroid);
         cam.position.z = f.centroid.z + std::min(1.6, 0.6 * h);
         cam.look_at = f.centroid + glm::dvec3(0.0, 0.0, 0.35 * h);
@@ -174,7 +205,9 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
         w, h,
         std::vector<glm::vec3>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h),
                                glm::vec3(0.0f)),
-        std::vector<std::uint8_t>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0)};
+        std::vector<std::uint8_t>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0),
+        std::vector<std::uint32_t>(static_cast<std::size_t>(w) * static_cast<std::size_t>(h),
+                                   kNoTriangle)};
     std::vector<double> depth(r.value.size(), std::numeric_limits<double>::infinity());
 
     // Camera space: (right, up, forward) relative to the eye, in double
@@ -267,6 +300,7 @@ Raster render_bake(const visdb::BakeMesh& mesh, const visdb::Camera& camera,
                     const glm::dvec3 val = (w0 * v[0]->v + w1 * v[1]->v + w2 * v[2]->v) * z;
                     r.value[o] = back ? glm::vec3(0.0f) : glm::vec3(val);
                     r.covered[o] = back ? 2 : 1;
+                    r.triangle[o] = static_cast<std::uint32_t>(t);
                 }
             }
         }

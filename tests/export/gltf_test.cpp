@@ -22,21 +22,7 @@ using namespace abrad::exporter;
 
 namespace {
 
-// Two surfaces at survey coordinates (1e6 m offsets, millimetre detail).
-visdb::BakeMesh survey_mesh() {
-    visdb::BakeMesh m;
-    const glm::dvec3 o(1.0e6, 2.0e6, 10.0);
-    m.positions = {o + glm::dvec3(0, 0, 0),     o + glm::dvec3(1.001, 0, 0),
-                   o + glm::dvec3(0, 2.002, 0), o + glm::dvec3(0, 0, 0),
-                   o + glm::dvec3(0, 2.002, 0), o + glm::dvec3(0, 0, 3.003)};
-    m.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}};
-    m.triangles = {{0, 1, 2}, {3, 5, 4}};
-    m.triangle_surface = {0, 1};
-    m.radiosity = {{10, 20, 30}, {1, 2, 3}, {0, 0, 0}, {5, 5, 5}, {50, 0, 0}, {0, 0, 500}};
-    for (const auto& b : m.radiosity) m.irradiance.push_back(2.0f * b);
-    return m;
-}
-
+using abrad::testing::survey_mesh;
 using abrad::testing::two_surfaces;
 
 std::vector<float> read_vec3(const tinygltf::Model& model, int accessor) {
@@ -82,7 +68,7 @@ tinygltf::Model load(const fs::path& path) {
 }
 
 void check_round_trip(const fs::path& path) {
-    const visdb::BakeMesh m = survey_mesh();
+    const visdb::BakeMesh m = survey_mesh(false);
     const ToneMap tone{.exposure = 0.05};
     write_gltf(path, two_surfaces(), m, tone);
 
@@ -171,9 +157,9 @@ TEST(GltfExport, RoundTripGlb) {
 TEST(GltfExport, RefusesOtherExtensionsAndBadMeshes) {
     const abrad::testing::TempDir dir("gltf");
     const fs::path p = dir / "bad.obj";
-    EXPECT_THROW(write_gltf(p, two_surfaces(), survey_mesh(), {}), ExportError);
+    EXPECT_THROW(write_gltf(p, two_surfaces(), survey_mesh(false), {}), ExportError);
     EXPECT_FALSE(fs::exists(p));
-    visdb::BakeMesh bad = survey_mesh();
+    visdb::BakeMesh bad = survey_mesh(false);
     bad.radiosity.pop_back();
     EXPECT_THROW(write_gltf(dir / "bad.gltf", two_surfaces(), bad, {}), ExportError);
     EXPECT_FALSE(fs::exists(dir / "bad.gltf"));
@@ -202,7 +188,7 @@ TEST(GltfExport, NamesThatAreNotUtf8AreTranscoded) {
     scene.materials[0].name = "Terraind\xe6k";    // Latin-1, as an OBJ from a Danish CAD tool
     scene.surfaces[1].name = "V\xe6g \x96 nord";  // Latin-1 æ, CP1252 en dash
     const fs::path path = dir / "names.gltf";
-    EXPECT_EQ(write_gltf(path, scene, survey_mesh(), {.exposure = 0.05}), 2u);
+    EXPECT_EQ(write_gltf(path, scene, survey_mesh(false), {.exposure = 0.05}), 2u);
     const tinygltf::Model model = load(path);
     ASSERT_EQ(model.materials.size(), 2u);
     EXPECT_EQ(model.materials[0].name, "Terraind\xc3\xa6k");

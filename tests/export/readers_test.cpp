@@ -22,24 +22,7 @@ using namespace abrad::exporter;
 
 namespace {
 
-// Two surfaces near a survey origin (1e6 m, 2e6 m), millimetre detail; triangles interleave
-// the surfaces, so the OBJ (grouped by surface) reorders them.
-visdb::BakeMesh survey_mesh() {
-    visdb::BakeMesh m;
-    const glm::dvec3 o(1.0e6 + 0.001, 2.0e6 + 0.002, 10.0);
-    m.positions = {o + glm::dvec3(0, 0, 0),        o + glm::dvec3(1.001, 0, 0),
-                   o + glm::dvec3(0, 2.002, 0),    o + glm::dvec3(0, 0, 0.5),
-                   o + glm::dvec3(0, 2.002, 0),    o + glm::dvec3(0, 0, 3.003),
-                   o + glm::dvec3(1.001, 2.002, 0)};
-    m.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}, {0, 0, 1}};
-    m.triangles = {{0, 1, 2}, {3, 5, 4}, {1, 6, 2}};
-    m.triangle_surface = {0, 1, 0};
-    m.radiosity = {{10, 20, 30}, {1, 2, 3},   {0, 0, 0}, {5, 5, 5},
-                   {50, 0, 0},   {0, 0, 500}, {2, 2, 2}};
-    for (const auto& b : m.radiosity) m.irradiance.push_back(2.0f * b);
-    return m;
-}
-
+using abrad::testing::survey_mesh;
 using abrad::testing::two_surfaces;
 
 glm::dvec3 y_up(const glm::dvec3& p) { return {p.x, p.z, -p.y}; }
@@ -109,7 +92,7 @@ const aiScene* read(Assimp::Importer& importer, const fs::path& path) {
 // the millimetres back.
 TEST(ExportReaders, AssimpReadsPly) {
     const abrad::testing::TempDir dir("readers");
-    const visdb::BakeMesh m = survey_mesh();
+    const visdb::BakeMesh m = survey_mesh(true);
     const ToneMap tone{.exposure = 0.05};
     for (const auto positions : {PlyPositions::Double, PlyPositions::Float})
         for (const bool ascii : {false, true})
@@ -139,7 +122,7 @@ TEST(ExportReaders, AssimpReadsPly) {
 TEST(ExportReaders, AssimpReadsObj) {
     const abrad::testing::TempDir dir("readers");
     // Near the origin: Assimp reads OBJ positions as float (ai_real)
-    visdb::BakeMesh m = survey_mesh();
+    visdb::BakeMesh m = survey_mesh(true);
     for (auto& p : m.positions) p -= glm::dvec3(1.0e6, 2.0e6, 0.0);
     const ToneMap tone{.exposure = 0.05};
     for (const auto up : {UpAxis::Y, UpAxis::Z}) {

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -16,9 +18,11 @@
 #include <string>
 #include <vector>
 
+#include "abrad/export/exposure.h"
 #include "abrad/export/image.h"
 #include "abrad/export/writers.h"
 #include "abrad/radiosity/form_factor.h"
+#include "export_scenes.h"
 #include "temp_dir.h"
 
 namespace fs = std::filesystem;
@@ -27,23 +31,13 @@ using namespace abrad::exporter;
 
 namespace {
 
-// Appends a quad a, b, c, d (counter-clockwise seen from the front) whose vertex values are
-// `value(position)`.
+// Appends a quad a, b, c, d (counter-clockwise seen from the front) whose vertex radiosity is
+// `value(position)` and irradiance twice that.
 template <typename F>
 void add_quad(visdb::BakeMesh& m, std::uint32_t surface, const glm::dvec3& a, const glm::dvec3& b,
               const glm::dvec3& c, const glm::dvec3& d, F value) {
-    const auto base = static_cast<std::uint32_t>(m.positions.size());
-    const glm::vec3 n = glm::vec3(glm::normalize(glm::cross(b - a, c - a)));
-    for (const auto& p : {a, b, c, d}) {
-        m.positions.push_back(p);
-        m.normals.push_back(n);
-        m.radiosity.push_back(value(p));
-        m.irradiance.push_back(2.0f * value(p));
-    }
-    m.triangles.push_back({base, base + 1, base + 2});
-    m.triangles.push_back({base, base + 2, base + 3});
-    m.triangle_surface.push_back(surface);
-    m.triangle_surface.push_back(surface);
+    abrad::testing::add_quad(m, surface, a, b, c, d, value,
+                             [&](const glm::dvec3& p) { return 2.0f * value(p); });
 }
 
 // A floor z = -1 from y = -5 (behind the camera) to 18.7 (between two pixel rows) whose radiosity
@@ -59,13 +53,7 @@ visdb::BakeMesh floor_and_wall() {
 }
 
 visdb::Camera looking_along_y() {
-    visdb::Camera c;
-    c.name = "test";
-    c.position = {0, 0, 0};
-    c.look_at = {0, 1, 0};
-    c.up = {0, 0, 1};
-    c.fov_y_deg = 90.0;
-    return c;
+    return abrad::testing::make_camera("test", {0, 0, 0}, {0, 1, 0}, {0, 0, 1}, 90.0);
 }
 
 // The ray through pixel (i, j), as CameraFrame documents it.
@@ -82,17 +70,33 @@ bool have_povray() {
 #endif
 }
 
-// Renders `scene.pov` in `dir` with POV-Ray to `out.exr` (w x h, no antialiasing).
-void povray(const fs::path& dir, int w, int h) {
+// Renders `scene.pov` in `dir` with POV-Ray to `out.exr` (w x h, no antialiasing), or to
+// `out.png` when `png`.
+void povray(const fs::path& dir, int w, int h, bool png = false) {
 #ifdef ABRAD_POVRAY
-    const std::string cmd = "cd '" + dir.string() + "' && " + ABRAD_POVRAY +
-                            " +Iscene.pov +Oout.exr +FE +W" + std::to_string(w) + " +H" +
-                            std::to_string(h) +
+    const std::string cmd = "cd '" + dir.string() + "' && " + ABRAD_POVRAY + " +Iscene.pov " +
+                            (png ? "+Oout.png +FN" : "+Oout.exr +FE") + " +W" + std::to_string(w) +
+                            " +H" + std::to_string(h) +
                             " -A -D -V +L/usr/share/povray-3.7/include > povray.log 2>&1";
     ASSERT_EQ(std::system(cmd.c_str()), 0) << "see " << (dir / "povray.log");
 #else
-    (void)dir, (void)w, (void)h;
+    (void)dir, (void)w, (void)h, (void)png;
 #endif
+}
+
+// The shortest text of a float, as the POV-Ray export writes it.
+std::string shortest(float v) {
+    char buf[64];
+    const auto res = std::to_chars(buf, buf + sizeof buf, v);
+    return {buf, res.ptr};
+}
+
+// The share of pixels of `img` with a channel at full scale (8-bit code 255), in percent.
+double clipped_percent(const Image& img) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < img.rgb.size(); i += 3)
+        if (std::max({img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]}) >= 1.0f) ++n;
+    return 100.0 * static_cast<double>(n) / static_cast<double>(img.rgb.size() / 3);
 }
 
 }  // namespace
@@ -214,6 +218,33 @@ TEST(Camera, DefaultIsInsideTheLargestRoomLookingAtItsCentre) {
     EXPECT_NEAR(c.look_at.z, 0.35 * (3.0 - 1e-4), 1e-9);  // probed from 0.1 mm above the floor
 }
 
+TEST(Camera, CeilingHeightPassesFurnitureOverTheFloorsCentre) {
+    // A table (a closed box, its top's underside at 0.71 m) right over the floor's centroid
+    // (3, 2): the ray up passes it and meets the ceiling at 3 m, so the eye is 1.6 m up (a
+    // ceiling taken at the table would put it at 0.6 x 0.71 = 0.43 m)
+    visdb::Scene s = box_room();
+    visdb::Surface table;
+    table.name = "table";
+    table.material = 0;
+    const glm::dvec3 lo(2.2, 1.6, 0.71), hi(3.8, 2.4, 0.75);
+    for (int k = 0; k < 8; ++k)
+        table.mesh.positions.emplace_back(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y,
+                                          k & 4 ? hi.z : lo.z);
+    // Outward faces: bottom (down), top (up), and the four sides
+    table.mesh.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
+                            {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+    s.surfaces.push_back(table);
+    const visdb::Camera c = default_camera(s);
+    EXPECT_NEAR(c.position.z, 1.6, 1e-9);
+    EXPECT_NEAR(c.look_at.z, 0.35 * (3.0 - 1e-4), 1e-9);
+
+    // A ceiling over a fifth of the floor is no ceiling of this room: the floor is seen as
+    // a room no more, the model from outside
+    visdb::Scene low = box_room();
+    low.surfaces[1].mesh.positions = {{2, 1, 3}, {2, 3, 3}, {4, 3, 3}, {4, 1, 3}};
+    EXPECT_LT(default_camera(low).position.x, 0.0);
+}
+
 TEST(Camera, OpenModelsAreSeenFromOutside) {
     visdb::Scene s = box_room();
     s.surfaces.erase(s.surfaces.begin() + 1);  // no ceiling: no room
@@ -307,6 +338,85 @@ TEST(PovExport, PovRayRendersTheSameImageAsAbrad) {
         if (std::abs(own.rgb[i] - pov.rgb[i]) <= 2e-3f * std::max(1.0f, own.rgb[i])) ++close;
     EXPECT_GT(close, static_cast<int>(0.99 * static_cast<double>(own.rgb.size())))
         << d.to_string() << "; images in " << dir;
+}
+
+TEST(PovExport, ToneMappedVariantWritesDisplayValuesForPng) {
+    const abrad::testing::TempDir tmp("render");
+    const fs::path& dir = tmp.path();
+    visdb::Scene scene;
+    scene.surfaces.resize(2);
+    const visdb::BakeMesh m = floor_and_wall();
+    const PovView view{.camera = looking_along_y(), .width = 64, .height = 48, .exposure = 0.125};
+    PovView toned = view;
+    toned.tone_mapped = true;
+    write_pov(dir / "linear.pov", scene, m, view);
+    write_pov(dir / "toned.pov", scene, m, toned);
+    auto text = [&](const char* name) {
+        std::ifstream in(dir / name);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        return ss.str();
+    };
+    const std::string linear = text("linear.pov"), tone = text("toned.pov");
+    // The linear one: exposure x B for OpenEXR
+    EXPECT_NE(linear.find("+Olinear.exr +FE"), std::string::npos);
+    EXPECT_NE(linear.find("emission Abrad_Exposure"), std::string::npos);
+    // The tone-mapped one: 1 - exp(-0.125 B) as the colour, emission 1, a PNG command, and
+    // no exposure left to override
+    EXPECT_NE(tone.find("+Otoned.png +FN"), std::string::npos);
+    EXPECT_EQ(tone.find("Abrad_Exposure"), std::string::npos);
+    EXPECT_NE(tone.find("emission 1 }"), std::string::npos);
+    const std::string wall = shortest(static_cast<float>(1.0 - std::exp(-0.125 * 100.0)));
+    EXPECT_NE(tone.find("texture{pigment{rgb<" + wall + "," + wall + "," + wall + ">}"),
+              std::string::npos)
+        << wall;
+    // Everything but the header and the colours is the same: the geometry, in the same order
+    auto after = [](const std::string& s, const char* from) { return s.substr(s.find(from)); };
+    auto without_colours = [](std::string s) {
+        for (std::size_t p = s.find("rgb<"); p != std::string::npos; p = s.find("rgb<", p + 4))
+            s.erase(p + 4, s.find('>', p) - (p + 4));
+        return s;
+    };
+    EXPECT_EQ(without_colours(after(tone, "// surface 0")),
+              without_colours(after(linear, "// surface 0")));
+}
+
+// The tone-mapped variant rendered by POV-Ray to a PNG shows abrad render's tone curve (applied
+// per vertex) and, with the automatic exposure, clips at most 2 % of the pixels; the linear
+// variant at the same exposure, written to a PNG, clips more
+TEST(PovExport, ToneMappedPngClipsAtMostTwoPercent) {
+    if (!have_povray()) GTEST_SKIP() << "povray not installed";
+    const abrad::testing::TempDir tmp("render");
+    const fs::path& dir = tmp.path();
+    const int w = 80, h = 60;
+    visdb::Scene scene;
+    scene.surfaces.resize(2);
+    const visdb::BakeMesh m = floor_and_wall();
+    const ToneMap tone = camera_tone_map(m, scene, looking_along_y(), w, h);
+    PovView view{.camera = looking_along_y(), .width = w, .height = h, .exposure = tone.exposure};
+    view.tone_mapped = true;
+    write_pov(dir / "scene.pov", scene, m, view);
+    povray(dir, w, h, true);
+    const Image png = read_image(dir / "out.png");
+    const double toned_clipped = clipped_percent(png);
+    EXPECT_LE(toned_clipped, 2.0) << "images in " << dir;
+
+    // The same picture from abrad's rasterizer over the tone-mapped vertex values
+    visdb::BakeMesh toned = m;
+    for (auto& b : toned.radiosity)
+        for (int c = 0; c < 3; ++c) b[c] = static_cast<float>(tone_value(b[c], tone));
+    const Raster r = render_bake(toned, looking_along_y(), {.width = w, .height = h});
+    int close = 0;
+    for (std::size_t i = 0; i < r.value.size(); ++i)
+        for (int c = 0; c < 3; ++c)
+            if (std::abs(png.rgb[3 * i + static_cast<std::size_t>(c)] - r.value[i][c]) <= 0.01f)
+                ++close;
+    EXPECT_GT(close, static_cast<int>(0.99 * 3 * w * h)) << "images in " << dir;
+
+    view.tone_mapped = false;
+    write_pov(dir / "scene.pov", scene, m, view);
+    povray(dir, w, h, true);
+    EXPECT_GT(clipped_percent(read_image(dir / "out.png")), toned_clipped + 1.0);
 }
 
 TEST(PovReference, PointLightsGiveTheExactDirectIrradianceOfALambertianEmitter) {

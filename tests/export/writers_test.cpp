@@ -433,6 +433,50 @@ TEST(PlyWriter, AsciiRoundTripsEveryValue) {
 // --positions float: x y z as float relative to the header's `comment origin` (whole metres
 // near the model at survey coordinates), which put back give the millimetres; --up y turns
 // positions and normals to (x, z, -y). Everything else as in the contract.
+// --surface-ids vertex: `surface` is the vertices' last property (0 for the floor's four, 1 for
+// the wall's three), the faces hold vertex_indices only; a vertex two surfaces share is refused.
+TEST(PlyWriter, SurfaceIdsOnVertices) {
+    TempDir dir;
+    const auto mesh = two_surface_mesh();
+    const ToneMap tone{.exposure = 1.0};
+    for (const bool ascii : {false, true}) {
+        SCOPED_TRACE(ascii ? "ascii" : "binary");
+        const fs::path path = dir / (ascii ? "a.ply" : "b.ply");
+        write_ply(path, mesh, tone,
+                  {.ascii = ascii, .comment = {}, .surface_ids = PlySurfaceIds::Vertex});
+        const Ply ply = read_ply(path);
+        std::vector<std::string> expected =
+            contract_header(ascii ? "ascii" : "binary_little_endian", {}, 7, 3);
+        expected.erase(std::find(expected.begin(), expected.end(), "property int surface"));
+        expected.insert(std::find(expected.begin(), expected.end(), "element face 3"),
+                        "property int surface");
+        EXPECT_EQ(ply.header_lines, expected);
+        const auto& v = ply.element("vertex");
+        ASSERT_EQ(v.count, 7u);
+        for (std::size_t i = 0; i < v.count; ++i) {
+            EXPECT_EQ(get<std::int32_t>(v, i, "surface"), i < 4 ? 0 : 1) << i;
+            EXPECT_EQ(get<double>(v, i, "y"), mesh.positions[i].y) << i;
+            EXPECT_EQ(get<float>(v, i, "radiosity_b"), mesh.radiosity[i].b) << i;
+        }
+        const auto& f = ply.element("face");
+        ASSERT_EQ(f.properties.size(), 1u);
+        EXPECT_EQ(f.rows[1][0].size(), 3u);
+        EXPECT_EQ(std::get<std::int32_t>(f.rows[1][0][2]), 6);
+    }
+    visdb::BakeMesh shared = mesh;
+    shared.triangles[1].x = 0;  // the floor's vertex 0 in a wall triangle
+    try {
+        write_ply(dir / "s.ply", shared, tone,
+                  {.comment = {}, .surface_ids = PlySurfaceIds::Vertex});
+        FAIL() << "no error";
+    } catch (const ExportError& e) {
+        EXPECT_NE(std::string(e.what()).find("vertex 0 is shared by surfaces 0 and 1"),
+                  std::string::npos)
+            << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir / "s.ply"));
+}
+
 TEST(PlyWriter, FloatPositionsRelativeToOriginAndYUp) {
     TempDir dir;
     const auto mesh = two_surface_mesh();

@@ -9,6 +9,7 @@
 #include <ctime>
 
 #include "abrad/convert/import.h"
+#include "abrad/export/exposure.h"
 #include "abrad/export/render.h"
 
 namespace abrad::tools::cli {
@@ -249,6 +250,12 @@ visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v) {
     } catch (const std::invalid_argument& e) {
         bad_input(e.what());
     }
+}
+
+exporter::ToneMap exposure_for(const visdb::Bake& bake, const visdb::Scene& scene,
+                               const ViewArgs& v) {
+    if (v.exposure) return exporter::ToneMap{.exposure = *v.exposure};
+    return exporter::camera_tone_map(bake.mesh, scene, camera_for(scene, v), v.width, v.height);
 }
 
 std::string utc_now() {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "abrad/export/simplify.h"
+#include "abrad/export/writers.h"
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/indirect.h"
 #include "abrad/visdb/model.h"
@@ -95,7 +96,7 @@ struct ViewArgs {
     std::string camera;  ///< empty: the scene's first camera, else the default camera
     int width = 640;
     int height = 480;
-    std::optional<double> exposure;  ///< empty: auto_tone_map of the bake
+    std::optional<double> exposure;  ///< empty: camera_tone_map of the bake through the camera
     int light_samples = 256;
     int reference_bounces = 0;
     std::string quality = "medium";
@@ -133,6 +134,11 @@ radiosity::PointIrradiance point_irradiance_of(const std::string& db, const visd
 /// The camera `v` names in `scene`; an unknown or degenerate camera is bad input.
 visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v);
 
+/// The tone map of `bake` seen through `v`'s camera: `--exposure` when given, else
+/// exporter::camera_tone_map for that camera and image size.
+exporter::ToneMap exposure_for(const visdb::Bake& bake, const visdb::Scene& scene,
+                               const ViewArgs& v);
+
 /// Seconds since `start` on the steady clock.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
@@ -160,7 +166,9 @@ struct ExportArgs {
     bool ascii = false;
     std::string up;                    ///< y|z; empty: the format's convention (obj y, ply z)
     std::string positions = "double";  ///< ply: double|float
+    std::string surface_ids = "face";  ///< ply: face|vertex
     std::optional<double> simplify;    ///< export a light mesh: simplify_mesh's error bound
+    bool pov_tone_map = false;         ///< pov: tone-mapped colours for PNG, not linear ones
     ViewArgs view;
 };
 /// Exports a bake (or the model, pov-reference) in `a.format`, or the format the output's

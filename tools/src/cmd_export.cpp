@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "abrad/export/exposure.h"
 #include "abrad/export/render.h"
 #include "abrad/export/writers.h"
 #include "cli_common.h"
@@ -35,9 +36,7 @@ struct ToneMapped {
 
 ToneMapped bake_of(const ExportJob& job) {
     visdb::Bake b = load_bake_for(job.store, job.args.db, job.args.bake, "export");
-    const exporter::ToneMap tone = job.args.view.exposure
-                                       ? exporter::ToneMap{.exposure = *job.args.view.exposure}
-                                       : exporter::auto_tone_map(b.mesh);
+    const exporter::ToneMap tone = exposure_for(b, job.scene, job.args.view);
     // --simplify: a light mesh, toned as the bake itself
     if (job.args.simplify) b.mesh = simplify_mesh(b, *job.args.simplify, "--simplify");
     return {std::move(b), tone};
@@ -64,7 +63,9 @@ void write_ply(const ExportJob& job) {
          .comment = "abrad bake " + t.bake.name,
          .up = up_axis(job.args, exporter::UpAxis::Z),
          .positions = job.args.positions == "float" ? exporter::PlyPositions::Float
-                                                    : exporter::PlyPositions::Double});
+                                                    : exporter::PlyPositions::Double,
+         .surface_ids = job.args.surface_ids == "vertex" ? exporter::PlySurfaceIds::Vertex
+                                                         : exporter::PlySurfaceIds::Face});
     report(job, t);
 }
 
@@ -93,7 +94,8 @@ void write_pov(const ExportJob& job) {
     const exporter::PovView v{.camera = camera_for(job.scene, view),
                               .width = view.width,
                               .height = view.height,
-                              .exposure = t.tone.exposure};
+                              .exposure = t.tone.exposure,
+                              .tone_mapped = job.args.pov_tone_map};
     exporter::write_pov(job.args.output, job.scene, t.bake.mesh, v);
     std::cout << "camera '" << v.camera.name << "'\n";
     report(job, t);
@@ -107,8 +109,8 @@ void write_pov_reference(const ExportJob& job) {
     if (!view.exposure) {
         if (job.store.list_bakes().empty())
             bad_input(job.args.db + ": no bake to take the exposure from (give --exposure)");
-        exposure = exporter::auto_tone_map(
-                       load_bake_for(job.store, job.args.db, job.args.bake, "export").mesh)
+        exposure = exposure_for(load_bake_for(job.store, job.args.db, job.args.bake, "export"),
+                                job.scene, view)
                        .exposure;
         from = "of the bake";
     }
@@ -143,10 +145,18 @@ struct ExportFormat {
 // --db, --output, --bake, --format and --exposure apply to every format.
 const std::vector<ExportFormat>& export_formats() {
     static const std::vector<ExportFormat> kFormats = {
-        {"ply", {".ply"}, true, {"--ascii", "--up", "--positions", "--simplify"}, write_ply},
+        {"ply",
+         {".ply"},
+         true,
+         {"--ascii", "--up", "--positions", "--surface-ids", "--simplify"},
+         write_ply},
         {"obj", {".obj"}, true, {"--up", "--simplify"}, write_obj},
         {"gltf", {".gltf", ".glb"}, true, {"--simplify"}, write_gltf},
-        {"pov", {".pov"}, true, {"--camera", "--width", "--height", "--simplify"}, write_pov},
+        {"pov",
+         {".pov"},
+         true,
+         {"--camera", "--width", "--height", "--simplify", "--pov-tone-map"},
+         write_pov},
         {"pov-reference",
          {".pov"},
          false,
@@ -259,10 +269,20 @@ void add_export(CLI::App& app) {
                    "header's 'comment origin X Y Z' (for web loaders such as three.js)")
         ->capture_default_str()
         ->check(CLI::IsMember({"double", "float"}));
+    app.add_option("--surface-ids", s.surface_ids,
+                   "ply: each triangle's surface id as a face property (the contract), or as a "
+                   "vertex property with faces holding vertex_indices only (for readers such as "
+                   "meshio that cannot read a binary face element with more properties)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"face", "vertex"}));
     app.add_option("--simplify", s.simplify,
                    "Export a light mesh: the bake decimated while the irradiance at every "
                    "removed vertex changes by at most this fraction, in (0, 1] (as abrad "
                    "simplify --error, without storing it)");
+    app.add_flag("--pov-tone-map", s.pov_tone_map,
+                 "pov: vertex colours through the tone curve 1 - exp(-exposure B), for an 8-bit "
+                 "PNG from POV-Ray (+FN) that looks like abrad render's, instead of linear "
+                 "exposure x B for OpenEXR (+FE)");
     add_view_options(app, s.view);
     app.add_option("--light-samples", s.view.light_samples,
                    "pov-reference: point lights sampling the emitters (cos-weighted spotlights)")

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "abrad/export/exposure.h"
 #include "abrad/export/image.h"
 #include "abrad/export/render.h"
 #include "abrad/export/writers.h"
@@ -60,8 +61,7 @@ void render_image(const RenderArgs& a) {
     const visdb::Bake b = load_bake_for(store, a.db, a.bake, "render");
     const visdb::Scene scene = store.load_scene();
     const visdb::Camera camera = camera_for(scene, a.view);
-    const exporter::ToneMap tone = a.view.exposure ? exporter::ToneMap{.exposure = *a.view.exposure}
-                                                   : exporter::auto_tone_map(b.mesh);
+    const exporter::ToneMap tone = exposure_for(b, scene, a.view);
     const auto t0 = std::chrono::steady_clock::now();
     const exporter::Raster r =
         exporter::render_bake(b.mesh, camera,
@@ -84,6 +84,14 @@ void render_image(const RenderArgs& a) {
               << "', " << r.width << "x" << r.height << ", exposure " << tone.exposure << " per "
               << b.unit << (linear ? ", linear" : ", tone-mapped sRGB") << ", " << seconds
               << " s)\n";
+    if (!linear) {
+        // What the tone curve clips: receivers (emitters are lights, and may)
+        const exporter::PixelCounts n = exporter::count_pixels(scene, b.mesh, r, tone);
+        std::cout << "clipped: " << n.receivers_clipped << " of " << n.receivers
+                  << " receiver pixels (" << n.receivers_clipped_percent() << " %); emitters "
+                  << n.emitters << " pixels, background and backs of faces "
+                  << n.pixels - n.receivers - n.emitters << "\n";
+    }
 }
 
 void add_render(CLI::App& app) {

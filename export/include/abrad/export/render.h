@@ -25,14 +25,15 @@ class CameraError : public std::invalid_argument {
 visdb::Camera select_camera(const visdb::Scene& scene, std::string_view name);
 
 /// A camera inside the largest room looking at its centre: the largest upward-facing
-/// non-emitting surface with a ceiling above it (the floor of a room; its ceiling height h is
-/// the distance from its area centroid up to the first non-emitting face whose front faces
-/// down) gets the eye 75 % of the way from its
-/// centroid toward its bounding-box corner (min x, min y), min(1.6 m, 0.6 h) above the floor,
-/// looking at the centroid 0.35 h above the floor, fov 70°. A scene without such a floor is
-/// seen from outside: from the (-x, -y, +z) side of its bounding box, far enough to hold it.
-/// Named "default". Precondition: the scene has at least one triangle (else a camera at the
-/// origin looking along +y is returned).
+/// non-emitting surface with a ceiling above it (the floor of a room) gets the eye 75 % of the
+/// way from its area centroid toward its bounding-box corner (min x, min y), min(1.6 m, 0.6 h)
+/// above the floor, looking at the centroid 0.35 h above the floor, fov 70°. The ceiling height
+/// h is measured by a ray up from the centroid to the first non-emitting face whose front faces
+/// down on a surface whose downward faces span at least half of the floor's bounding box (xy):
+/// furniture over the floor's centre (a table top's underside) is passed, not taken for the
+/// ceiling. A scene without such a floor is seen from outside: from the (-x, -y, +z) side of its
+/// bounding box, far enough to hold it. Named "default". Precondition: the scene has at least
+/// one triangle (else a camera at the origin looking along +y is returned).
 visdb::Camera default_camera(const visdb::Scene& scene);
 
 /// A camera's orthonormal frame in metres for an image of `width` × `height` pixels: pixel
@@ -65,14 +66,18 @@ struct RenderOptions {
     double near = 1e-3;  ///< near clipping distance, metres
 };
 
+/// The `Raster::triangle` of a pixel that no triangle covers.
+inline constexpr std::uint32_t kNoTriangle = 0xffffffffu;
+
 /// A rendered buffer: per pixel the interpolated linear value (not exposed or tone mapped)
 /// and what covers it: 0 nothing, 1 the front of a face, 2 the back of a face (a bake shades
-/// fronts only, so backs hold 0, as uncovered pixels do).
+/// fronts only, so backs hold 0, as uncovered pixels do), and which triangle.
 struct Raster {
     int width = 0;
     int height = 0;
-    std::vector<glm::vec3> value;       ///< row-major, top row first
-    std::vector<std::uint8_t> covered;  ///< 0 nothing, 1 front face, 2 back face
+    std::vector<glm::vec3> value;         ///< row-major, top row first
+    std::vector<std::uint8_t> covered;    ///< 0 nothing, 1 front face, 2 back face
+    std::vector<std::uint32_t> triangle;  ///< index into the mesh's triangles, or kNoTriangle
 };
 
 /// Rasterizes `mesh` through `camera`: both faces of every triangle are drawn (backs black),

@@ -52,11 +52,21 @@ enum class PlyPositions {
              ///< 1 km or more from the origin. What web loaders (three.js) read.
 };
 
+/// Where a PLY carries each triangle's surface id.
+enum class PlySurfaceIds {
+    Face,    ///< `property int surface` of the face element, after vertex_indices (the contract)
+    Vertex,  ///< `property int surface` as the vertex element's last property instead (bake
+             ///< vertices are not shared across surfaces), the face element holding
+             ///< vertex_indices only: what readers that take a face element's properties one
+             ///< after the other for all faces, such as meshio 5's binary reader, can read.
+};
+
 struct PlyOptions {
     bool ascii = false;   ///< binary_little_endian when false
     std::string comment;  ///< written as `comment` header lines (one per line) when not empty
     UpAxis up = UpAxis::Z;
     PlyPositions positions = PlyPositions::Double;
+    PlySurfaceIds surface_ids = PlySurfaceIds::Face;
 };
 
 struct ObjOptions {
@@ -67,9 +77,11 @@ struct ObjOptions {
 /// irradiance_r/g/b and radiosity_r/g/b (float); face vertex_indices (list uchar int) and
 /// surface (int). Binary is little endian on any host; ASCII numbers read back exactly.
 /// `options.positions` Float writes x y z as float relative to a `comment origin` line, and
-/// `options.up` Y turns the model Y up.
+/// `options.up` Y turns the model Y up. `options.surface_ids` Vertex moves `surface` to the
+/// vertices (a vertex no triangle uses gets -1).
 /// Throws ExportError naming `path` when the mesh is inconsistent (array lengths, indices out
-/// of range) or the file cannot be written ("PATH: cannot write: ..."). Writes a temporary
+/// of range; with surface ids on vertices, a vertex shared by two surfaces) or the file cannot
+/// be written ("PATH: cannot write: ..."). Writes a temporary
 /// beside `path` and renames it (abrad/atomic_file.h), so a failure leaves no partial file.
 void write_ply(const std::filesystem::path& path, const visdb::BakeMesh& mesh, const ToneMap& tone,
                const PlyOptions& options = {});
@@ -92,6 +104,10 @@ struct PovView {
     int width = 640;       ///< the image size the camera's aspect ratio is set for
     int height = 480;
     double exposure = 1.0;  ///< default of `Abrad_Exposure`: image value = exposure × B
+    /// `pov` only: write the tone curve's display values 1 - exp(-exposure B) (tone_value) as
+    /// the vertex colours, for an 8-bit PNG that looks like `abrad render`'s, instead of the
+    /// linear exposure × B for OpenEXR.
+    bool tone_mapped = false;
 };
 
 /// Writes the bake as POV-Ray 3.7 source: one `mesh2` per surface (vertices relative to an
@@ -103,8 +119,11 @@ struct PovView {
 /// is left-handed); `camera` from `view`, no lights, black background.
 /// `Abrad_Exposure` is declared only when not already defined (override it with
 /// `Declare=Abrad_Exposure=1` on the povray command line for absolute values). Render to
-/// OpenEXR (`+FE`) for linear values; a PNG clips them at 1. Throws ExportError naming `path`
-/// on an inconsistent mesh or an I/O failure (written to a temporary and renamed).
+/// OpenEXR (`+FE`) for linear values; a PNG clips them at 1. With `view.tone_mapped` the
+/// colours are the tone curve's display values instead (tone_value with `view.exposure`,
+/// Gouraud-interpolated between vertices), shown with `emission 1`, no `Abrad_Exposure`, for a
+/// PNG (`+FN`; POV-Ray sRGB-encodes it). Throws ExportError naming `path` on an inconsistent
+/// mesh or an I/O failure (written to a temporary and renamed).
 void write_pov(const std::filesystem::path& path, const visdb::Scene& scene,
                const visdb::BakeMesh& mesh, const PovView& view);
 
