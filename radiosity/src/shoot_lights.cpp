@@ -63,13 +63,18 @@ bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
 }
 
 // True when the light's hemicube, at its centroid, cannot see the front of receiver r (the
-// centroid is on or behind r's plane) though part of the light is in front of r: the shot
-// then says nothing of r (the side of a box that only the far part of a ceiling panel lights).
+// centroid is on or behind r's plane) though part of the light is in front of r by more than
+// a relative 1e-9 of the light's size: the shot then says nothing of r (the side of a box
+// that only the far part of a ceiling panel lights). A light in r's plane (a panel flush with
+// the ceiling) lights nothing of it.
 bool unseen_from_centroid(const Patch& light, const Patch& r) {
-    const glm::dvec3 n = cross_normal(r);
+    const glm::dvec3 n = unit_normal(r);
     if (glm::dot(centroid(light) - r.p[0], n) > 0.0) return false;
+    const double eps =
+        1e-9 * std::max({glm::length(light.p[1] - light.p[0]), glm::length(light.p[2] - light.p[1]),
+                         glm::length(light.p[0] - light.p[2])});
     for (const glm::dvec3& p : light.p)
-        if (glm::dot(p - r.p[0], n) > 0.0) return true;
+        if (glm::dot(p - r.p[0], n) > eps) return true;
     return false;
 }
 

@@ -55,6 +55,7 @@ TEST_F(BenchCli, BadInputExitsTwo) {
     EXPECT_EQ(abrad("bench --out " + path("b") + " --subdivisions 0").status, 2);
     EXPECT_EQ(abrad("bench --out " + path("b") + " --no-room").status, 2);
     EXPECT_EQ(abrad("bench --out " + path("b") + " --quick --reach -1").status, 2);
+    EXPECT_EQ(abrad("bench --out " + path("b") + " --quick --tradeoff 0.07,1").status, 2);
     EXPECT_EQ(abrad("bake --db " + path("a.visdb") + " --reach -2").status, 2);
 }
 

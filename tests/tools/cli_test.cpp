@@ -565,9 +565,10 @@ double centred_rectangle_form_factor(double a, double b, double h) {
     return 2.0 / M_PI * (x / sx * std::atan(y / sx) + y / sy * std::atan(x / sy));
 }
 
-// The irradiance triple `probe` prints for one point.
-glm::dvec3 probe_point(const std::string& db, const std::string& points_file) {
-    const Result r = run("probe --db " + db + " --points " + points_file);
+// The irradiance triple `probe` prints for one point (`options` added to the command).
+glm::dvec3 probe_point(const std::string& db, const std::string& points_file,
+                       const std::string& options = "") {
+    const Result r = run("probe --db " + db + " --points " + points_file + " " + options);
     EXPECT_EQ(r.status, 0) << r.output;
     std::istringstream in(r.output);
     std::string line, last;
@@ -582,6 +583,28 @@ glm::dvec3 probe_point(const std::string& db, const std::string& points_file) {
         return glm::dvec3(0.0);
     }
     return {v[6], v[7], v[8]};
+}
+
+// `probe --bake none` is the exact direct light, whatever bakes the database holds: beside a
+// converged bake of the paper's room (walls and ceiling reflect), the closed form of the
+// 1×1 m light at 2.9 m (E = 100 W/m²) at a floor point, where the default (the latest bake)
+// adds the gathered indirect light; an unknown bake name is still refused.
+TEST_F(Cli, ProbeBakeNoneGivesTheExactDirectLight) {
+    const std::string db = path("room.visdb").string();
+    ASSERT_EQ(run("import " + sample("paper_simple/paper_occluder.obj") + " --db " + db).status, 0);
+    ASSERT_EQ(run("bake --db " + db + " --dm off --name converged").status, 0);
+    const std::string points = write("p.csv", "1.5,1.5,0,0,0,1\n");
+    using abrad::radiosity::ff_parallel_rectangle_corner;
+    const double corner =
+        100.0 * (ff_parallel_rectangle_corner(2, 2, 2.9) - ff_parallel_rectangle_corner(1, 2, 2.9) -
+                 ff_parallel_rectangle_corner(2, 1, 2.9) + ff_parallel_rectangle_corner(1, 1, 2.9));
+    const glm::dvec3 direct = probe_point(db, points, "--bake none");
+    const glm::dvec3 gathered = probe_point(db, points);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(direct[c], corner, 1e-7 * corner);
+    EXPECT_GT(gathered.y, 1.05 * direct.y);
+    const Result named = run("probe --db " + db + " --points " + points + " --bake nope");
+    EXPECT_EQ(named.status, 2) << named.output;
+    EXPECT_NE(named.output.find("nope"), std::string::npos) << named.output;
 }
 
 // The FZK-Haus IFC lit by its scene file: ceiling panels given in lumens become emitters at

@@ -167,7 +167,7 @@ std::string csv_row(const BenchRun& r) {
           << fmt(i->energy_escaped_w, 9) << ',' << fmt(i->energy_unshot_w, 9);
     else
         s << ",,,,,,,";
-    s << ',' << (o.dm ? fmt(o.refine_tolerance, 6) : std::string());
+    s << ',' << (o.dm ? fmt(o.refine_tolerance, 6) : std::string("-"));
     return s.str();
 }
 

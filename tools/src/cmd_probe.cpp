@@ -22,9 +22,10 @@ ProbeArgs& state() {
     return s;
 }
 
-// The bake whose indirect part to gather: the named one, else the latest, else none.
+// The bake whose indirect part to gather: the named one, else the latest, else none ("none":
+// direct light only, whatever the database holds).
 std::optional<visdb::Bake> bake_to_gather(visdb::Store& store, const std::string& name) {
-    if (name.empty() && store.list_bakes().empty()) return std::nullopt;
+    if (name == "none" || (name.empty() && store.list_bakes().empty())) return std::nullopt;
     try {
         return store.load_bake(name);
     } catch (const visdb::StoreError& e) {
@@ -44,8 +45,8 @@ void add_probe(CLI::App& app) {
         ->required();
     app.add_option("--bake", s.bake,
                    "Bake whose interreflection to gather and unit to "
-                   "report (default: the latest; a database without bakes gives direct "
-                   "light only)");
+                   "report (default: the latest; none: exact direct light only, as does a "
+                   "database without bakes)");
 }
 
 int run_probe(const Invocation&) {
@@ -67,7 +68,8 @@ int run_probe(const Invocation&) {
         field.has_indirect()
             ? ("exact direct + indirect gathered from bake '" + bake->name + "'").c_str()
         : bake ? ("direct light only (bake '" + bake->name + "' has no interreflection)").c_str()
-               : "direct light only (no bake yet)",
+        : s.bake == "none" ? "direct light only (--bake none)"
+                           : "direct light only (no bake yet)",
         unit.c_str());
     const std::vector<visdb::Rgb> h = field.at(points);
     std::printf("x,y,z,nx,ny,nz,irradiance_r,irradiance_g,irradiance_b\n");
