@@ -218,6 +218,8 @@ TEST(LuminaireCli, RoomLitByDownlightsImportsBakesExportsAndProbes) {
     // The default bake: the room's reflections add to the direct light
     const auto full = run_abrad("bake --db " + db + " --name full");
     ASSERT_EQ(full.status, 0) << full.output;
+    EXPECT_NE(full.output.find(" 0 light triangles, 3 luminaires, "), std::string::npos)
+        << full.output;
     const auto with_indirect =
         run_abrad("probe --db " + db + " --bake full --points " + csv.string());
     ASSERT_EQ(with_indirect.status, 0) << with_indirect.output;

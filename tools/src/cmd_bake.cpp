@@ -117,8 +117,9 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
     }
     const visdb::BakeStats& st = b.statistics;
     std::cout << "bake '" << b.name << "': " << st.triangles << " triangles, " << st.vertices
-              << " vertices, " << st.light_triangles << " light triangles, " << st.seconds_total
-              << " s\n";
+              << " vertices, " << st.light_triangles << " light triangles, ";
+    if (!scene.luminaires.empty()) std::cout << scene.luminaires.size() << " luminaires, ";
+    std::cout << st.seconds_total << " s\n";
     if (n)
         std::cout << "  receiver irradiance (luminance) min " << lo << " / mean " << sum / double(n)
                   << " / max " << hi << " " << b.unit << "\n";
