@@ -96,6 +96,7 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
             exact ? std::move(dm->irradiance) : shade_patches(geometry, target, hemicube, options);
         vertex_region = std::move(dm->vertex_region);
     } else {
+        if (!exact) bound_by_exitance(geometry, shots.triangle_irradiance);
         direct = exact ? std::move(shots.vertex_irradiance)
                        : average_to_vertices(geometry, shots.triangle_irradiance);
         if (indirect) vertex_region = vertex_regions(geometry, regions);
