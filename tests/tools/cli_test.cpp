@@ -339,8 +339,9 @@ TEST_F(Cli, DmAngleRefinesEverySample) {
         ASSERT_EQ(run("import " + m.path + m.options + " --db " + db).status, 0) << m.path;
         const Result r = run("bake --bounces 0 --dm-angle 20.7 --db " + db);
         ASSERT_EQ(r.status, 0) << m.path << "\n" << r.output;
-        if (m.refines)
+        if (m.refines) {
             EXPECT_EQ(r.output.find(" 0 refinement points"), std::string::npos) << r.output;
+        }
         const auto store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
         const abrad::visdb::Scene scene = store.load_scene();
         const auto bake = store.load_bake();
