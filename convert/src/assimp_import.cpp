@@ -45,6 +45,7 @@
 // vertical), then apply the file's up axis: options.up, else the format's convention or what
 // the file declares (glTF: Y; Collada <up_axis>; FBX UpAxis; everything else Z).
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/config.h>
 #include <assimp/material.h>
 #include <assimp/metadata.h>
@@ -61,6 +62,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
 #include <glm/mat4x4.hpp>
@@ -69,6 +71,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <stdexcept>
@@ -176,6 +179,51 @@ class LoggerScope {
     bool m_installed = false;
 };
 
+/// Assimp's file system for one model: every file a reader opens (a glTF's buffers, an OBJ's
+/// material library, a texture) must be a regular file and, unless `allow_outside`, lie in the
+/// model's folder tree, like an OBJ's mtllib. A refused file is not opened (the reader then
+/// fails or goes on without it); the first refusal is kept for the error message.
+class GuardedIOSystem : public Assimp::DefaultIOSystem {
+  public:
+    GuardedIOSystem(std::filesystem::path model, bool allow_outside)
+        : m_model(std::move(model)), m_allow_outside(allow_outside) {}
+
+    Assimp::IOStream* Open(const char* name, const char* mode) override {
+        if (!allowed(name)) return nullptr;
+        return Assimp::DefaultIOSystem::Open(name, mode);
+    }
+    /// The first file refused ("FILE: referenced file 'X' is outside the model's folder ..."),
+    /// if any.
+    const std::optional<ImportError>& refusal() const { return m_refusal; }
+
+  private:
+    bool allowed(const char* name) {
+        std::error_code ec;
+        const std::filesystem::path path(name);
+        if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+            refuse(
+                ImportError(m_model.string(), 0,
+                            "referenced file " + quote(path.string()) + " is not a regular file"));
+            return false;
+        }
+        if (m_allow_outside || path == m_model) return true;
+        try {
+            detail::check_reference_inside(path, m_model, m_model.string(), 0,
+                                           "referenced file (buffer, texture or library)");
+        } catch (const ImportError& e) {
+            refuse(e);
+            return false;
+        }
+        return true;
+    }
+    void refuse(const ImportError& e) {
+        if (!m_refusal) m_refusal = e;
+    }
+    std::filesystem::path m_model;
+    bool m_allow_outside;
+    std::optional<ImportError> m_refusal;
+};
+
 /// Assimp's message without the file path (our messages name the file first), trailing
 /// punctuation or line breaks.
 std::string clean_message(std::string message, const std::string& path) {
@@ -239,6 +287,57 @@ void check_collada(std::string_view bytes, const std::string& file) {
                                   std::to_string(bytes.size()) + " bytes)");
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// glTF (JSON)
+
+/// SAX handler that accepts every value and keeps the first syntax error: the JSON is
+/// checked without building it (no memory for huge arrays, no recursion for deep nesting).
+struct JsonSyntax : nlohmann::json_sax<nlohmann::json> {
+    bool null() override { return true; }
+    bool boolean(bool /*unused*/) override { return true; }
+    bool number_integer(number_integer_t /*unused*/) override { return true; }
+    bool number_unsigned(number_unsigned_t /*unused*/) override { return true; }
+    bool number_float(number_float_t /*unused*/, const string_t& /*unused*/) override {
+        return true;
+    }
+    bool string(string_t& /*unused*/) override { return true; }
+    bool binary(binary_t& /*unused*/) override { return true; }
+    bool start_object(std::size_t /*unused*/) override { return true; }
+    bool key(string_t& /*unused*/) override { return true; }
+    bool end_object() override { return true; }
+    bool start_array(std::size_t /*unused*/) override { return true; }
+    bool end_array() override { return true; }
+    bool parse_error(std::size_t position, const std::string& /*unused*/,
+                     const nlohmann::detail::exception& e) override {
+        at = position;
+        message = e.what();
+        return false;
+    }
+    std::size_t at = 0;
+    std::string message;
+};
+
+/// Checks a .gltf file is JSON before Assimp reads it (Assimp says only "No suitable reader
+/// found" for a truncated one); throws ImportError at the line and column of the first error.
+void check_gltf_json(std::string_view bytes, const std::string& file) {
+    JsonSyntax sax;
+    if (nlohmann::json::sax_parse(bytes, &sax)) return;
+    // nlohmann's position counts the bytes read, the offending one included
+    const std::size_t at = std::min(sax.at > 0 ? sax.at - 1 : 0, bytes.size());
+    const std::size_t line =
+        static_cast<std::size_t>(std::count(bytes.begin(), bytes.begin() + at, '\n')) + 1;
+    const std::size_t line_start = bytes.rfind('\n', at == 0 ? 0 : at - 1);
+    const std::size_t column =
+        line_start == std::string_view::npos || at == 0 ? at + 1 : at - line_start;
+    // "[json.exception.parse_error.101] parse error at line 1, column 5: syntax error while
+    // parsing value - unexpected end of input; ..." -> "syntax error ... input"
+    std::string what = sax.message;
+    if (const std::size_t c = what.find(": "); c != std::string::npos) what.erase(0, c + 2);
+    throw ImportError(file, line,
+                      "column " + std::to_string(column) + " (byte " + std::to_string(at) +
+                          "): not valid glTF JSON: " + clean_message(what, file));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1265,6 +1364,8 @@ BeforeAssimp check_and_expand(std::string_view bytes, const std::string& ext,
     if (bytes.starts_with("ply") || bytes.starts_with("PLY")) check_ply(bytes, file);
     // GLB: Assimp allocates what a chunk claims before reading it
     if (bytes.starts_with("glTF")) check_glb(bytes, file);
+    // glTF: Assimp names no place in a broken JSON file
+    if (ext == "gltf") check_gltf_json(bytes, file);
     // Collada: Assimp reads fractional indices into a huge allocation
     if (ext == "dae" || bytes.substr(0, 1024).find("<COLLADA") != std::string_view::npos)
         check_collada(bytes, file);
@@ -1327,6 +1428,9 @@ RawModel read_assimp_here(const std::filesystem::path& path, const ImportOptions
     importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_USE_COLLADA_NAMES, true);
     importer.SetPropertyBool(AI_CONFIG_IMPORT_FBX_PRESERVE_PIVOTS, false);
     importer.SetPropertyBool(AI_CONFIG_FBX_CONVERT_TO_M, false);
+    // The importer owns (and deletes) its IO handler
+    auto* io = new GuardedIOSystem(path, options.allow_outside_refs);
+    importer.SetIOHandler(io);
     std::vector<std::string> log;
     const aiScene* scene = nullptr;
     {
@@ -1339,9 +1443,11 @@ RawModel read_assimp_here(const std::filesystem::path& path, const ImportOptions
                 scene = importer.ReadFile(file, aiProcess_ValidateDataStructure);
             }
         } catch (const std::exception& e) {
+            if (io->refusal()) throw *io->refusal();
             throw ImportError(file, 0, "cannot read: " + clean_message(e.what(), file));
         }
     }
+    if (io->refusal()) throw *io->refusal();
     if (scene == nullptr || scene->mRootNode == nullptr) {
         std::string message = clean_message(importer.GetErrorString(), file);
         if (message.empty()) message = "Assimp could not read it";

@@ -96,6 +96,9 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
             exact ? std::move(dm->irradiance) : shade_patches(geometry, target, hemicube, options);
         vertex_region = std::move(dm->vertex_region);
     } else {
+        // (the bound holds for area lights only: with luminaires the sum is not bounded)
+        if (!exact && geometry.luminaires.empty())
+            bound_by_exitance(geometry, shots.triangle_irradiance);
         direct = exact ? std::move(shots.vertex_irradiance)
                        : average_to_vertices(geometry, shots.triangle_irradiance);
         if (indirect) vertex_region = vertex_regions(geometry, regions);

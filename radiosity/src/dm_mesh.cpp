@@ -20,7 +20,6 @@
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Constrained_triangulation_plus_2.h>
 #include <CGAL/Delaunay_mesh_face_base_2.h>
-#include <CGAL/Delaunay_mesh_size_criteria_2.h>
 #include <CGAL/Delaunay_mesh_vertex_base_2.h>
 #include <CGAL/Delaunay_mesher_2.h>
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
@@ -34,6 +33,7 @@
 #include <cmath>
 #include <cstdint>
 #include <glm/geometric.hpp>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -53,6 +53,9 @@ constexpr std::size_t kMaxRounds = 8;
 /// Rounds (0-based) in which refinement runs; later re-meshes keep the refined vertex set but
 /// insert no Steiner points, so the conformity loop terminates.
 constexpr std::size_t kRefineRounds = 4;
+/// Quality refinement leaves triangles whose shortest edge is under this fraction of their
+/// region's size (its first CDT's bounding box diagonal) as they are.
+constexpr double kQualityFloor = 1e-2;
 
 // ---------------------------------------------------------------------------------------------
 // CGAL types
@@ -88,7 +91,47 @@ using Vb2 =
 using Fb2 = CGAL::Delaunay_mesh_face_base_2<K>;
 using Tds2 = CGAL::Triangulation_data_structure_2<Vb2, Fb2>;
 using Cdt2 = CGAL::Constrained_Delaunay_triangulation_2<K, Tds2, CGAL::Exact_predicates_tag>;
-using Criteria = CGAL::Delaunay_mesh_size_criteria_2<Cdt2>;
+/// The minimum-angle criterion (quality = sin² of the smallest angle) with a floor: a
+/// triangle whose shortest edge is under `min_edge` is never bad. Refinement near an input
+/// angle smaller than the bound, or near a feature far smaller than the region, would
+/// otherwise add triangles down to the feature's size (the furnished room: 358k triangles
+/// instead of 6.5k without the floor).
+class Criteria {
+  public:
+    using Quality = double;
+    Criteria(double sin2_min_angle, double min_edge)
+        : m_bound(sin2_min_angle), m_min_edge2(min_edge * min_edge) {}
+
+    class Is_bad {
+      public:
+        Is_bad(double bound, double min_edge2) : m_bound(bound), m_min_edge2(min_edge2) {}
+        CGAL::Mesh_2::Face_badness operator()(Quality q) const {
+            return q < m_bound ? CGAL::Mesh_2::BAD : CGAL::Mesh_2::NOT_BAD;
+        }
+        CGAL::Mesh_2::Face_badness operator()(const Cdt2::Face_handle& f, Quality& q) const {
+            const K::Point_2 &a = f->vertex(0)->point(), &b = f->vertex(1)->point(),
+                             &c = f->vertex(2)->point();
+            const double ab = CGAL::squared_distance(a, b), bc = CGAL::squared_distance(b, c),
+                         ca = CGAL::squared_distance(c, a);
+            const double shortest = std::min({ab, bc, ca});
+            if (shortest < m_min_edge2) {
+                q = 1.0;
+                return CGAL::Mesh_2::NOT_BAD;
+            }
+            // sin² of the smallest angle: (2 area)² / (product of the two longer sides²)
+            const double area2 = CGAL::area(a, b, c) * 2.0;
+            q = area2 * area2 / (ab * bc * ca / shortest);
+            return operator()(q);
+        }
+
+      private:
+        double m_bound, m_min_edge2;
+    };
+    Is_bad is_bad_object() const { return Is_bad(m_bound, m_min_edge2); }
+
+  private:
+    double m_bound, m_min_edge2;
+};
 using Mesher = CGAL::Delaunay_mesher_2<Cdt2, Criteria>;
 
 // ---------------------------------------------------------------------------------------------
@@ -188,9 +231,9 @@ struct MeshRun {
 // Triangulation
 
 /// Spatially coherent insertion order (Morton order of quantised coordinates).
-std::vector<std::uint32_t> insertion_order(const std::vector<Vtx>& verts) {
+std::vector<std::uint32_t> insertion_order_of(const std::vector<Vec2>& pts) {
     Box b;
-    for (const Vtx& v : verts) b.grow(glm::dvec3(v.p.x, v.p.y, 0.0));
+    for (const Vec2& p : pts) b.grow(glm::dvec3(p.x, p.y, 0.0));
     const double ex = std::max(b.hi.x - b.lo.x, b.hi.y - b.lo.y);
     const double s = ex > 0.0 ? 65535.0 / ex : 0.0;
     auto spread = [](std::uint32_t x) {
@@ -201,18 +244,25 @@ std::vector<std::uint32_t> insertion_order(const std::vector<Vtx>& verts) {
         x = (x | (x << 1)) & 0x55555555u;
         return x;
     };
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> keyed(verts.size());
-    for (std::size_t i = 0; i < verts.size(); ++i) {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> keyed(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) {
         const auto qx =
-            static_cast<std::uint32_t>(std::clamp((verts[i].p.x - b.lo.x) * s, 0.0, 65535.0));
+            static_cast<std::uint32_t>(std::clamp((pts[i].x - b.lo.x) * s, 0.0, 65535.0));
         const auto qy =
-            static_cast<std::uint32_t>(std::clamp((verts[i].p.y - b.lo.y) * s, 0.0, 65535.0));
+            static_cast<std::uint32_t>(std::clamp((pts[i].y - b.lo.y) * s, 0.0, 65535.0));
         keyed[i] = {spread(qx) | (spread(qy) << 1), static_cast<std::uint32_t>(i)};
     }
     std::sort(keyed.begin(), keyed.end());
-    std::vector<std::uint32_t> order(verts.size());
+    std::vector<std::uint32_t> order(pts.size());
     for (std::size_t i = 0; i < keyed.size(); ++i) order[i] = keyed[i].second;
     return order;
+}
+
+/// insertion_order_of the vertices' 2D positions.
+std::vector<std::uint32_t> insertion_order(const std::vector<Vtx>& verts) {
+    std::vector<Vec2> pts(verts.size());
+    for (std::size_t i = 0; i < verts.size(); ++i) pts[i] = verts[i].p;
+    return insertion_order_of(pts);
 }
 
 /// Builds the output and the next state from a triangulation whose inside faces are known.
@@ -318,8 +368,202 @@ std::vector<Cdt2::Vertex_handle> walk_constrained(const Cdt2& cdt, Cdt2::Vertex_
     return path;
 }
 
+/// Uniform grid hash over 2D points, cell = merge distance.
+class PointGrid {
+  public:
+    explicit PointGrid(double cell) : m_inv(1.0 / cell) {}
+    void add(Vec2 p, std::uint32_t id) { m_cells[key(cell_of(p.x), cell_of(p.y))].push_back(id); }
+    template <class F>
+    void near(Vec2 p, F&& f) const {
+        const std::int64_t cx = cell_of(p.x), cy = cell_of(p.y);
+        for (std::int64_t dx = -1; dx <= 1; ++dx)
+            for (std::int64_t dy = -1; dy <= 1; ++dy) {
+                auto it = m_cells.find(key(cx + dx, cy + dy));
+                if (it != m_cells.end())
+                    for (std::uint32_t id : it->second) f(id);
+            }
+    }
+
+  private:
+    std::int64_t cell_of(double x) const {
+        return static_cast<std::int64_t>(std::floor(x * m_inv));
+    }
+    static std::uint64_t key(std::int64_t x, std::int64_t y) {
+        return static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
+               static_cast<std::uint64_t>(y);
+    }
+    double m_inv;
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> m_cells;
+};
+
+/// Box around the segment [a, b] grown by r.
+Box box_around(Vec2 a, Vec2 b, double r) {
+    Box q;
+    q.grow(glm::dvec3(a.x, a.y, 0.0));
+    q.grow(glm::dvec3(b.x, b.y, 0.0));
+    q.inflate(r);
+    return q;
+}
+
+/// Routes each segment (indices into `pts`) through the points within `eps` of its interior,
+/// in order along it, so that no point lies on or next to a constraint it is not a vertex of.
+/// `scale` is the points' extent (long segments are searched in pieces of about scale / 64).
+/// With `source`, every piece is kept and source[k] is the segment piece k came from; without,
+/// repeated pieces are dropped.
+std::vector<std::array<std::uint32_t, 2>> route_segments(
+    const std::vector<Vec2>& pts, const std::vector<std::array<std::uint32_t, 2>>& segments,
+    double eps, double scale, std::vector<std::uint32_t>* source = nullptr) {
+    std::vector<Box> boxes(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) boxes[i].grow(glm::dvec3(pts[i].x, pts[i].y, 0.0));
+    const Bvh bvh(std::move(boxes));
+    std::vector<std::array<std::uint32_t, 2>> routed;
+    std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+    std::uint32_t current = 0;
+    auto add_piece = [&](std::uint32_t v0, std::uint32_t v1) {
+        if (v0 == v1) return;
+        if (source) {
+            source->push_back(current);
+        } else if (!seen.insert({std::min(v0, v1), std::max(v0, v1)}).second) {
+            return;
+        }
+        routed.push_back({v0, v1});
+    };
+    for (; current < segments.size(); ++current) {
+        // Plain variables, not a structured binding: clang 14 (clang-tidy) cannot capture
+        // structured bindings in the lambda below
+        const std::uint32_t v0 = segments[current][0], v1 = segments[current][1];
+        const Vec2 a = pts[v0], d = pts[v1] - a;
+        const double dd = dot2(d, d);
+        const int chunks = static_cast<int>(std::clamp(std::sqrt(dd) / scale * 64.0, 1.0, 256.0));
+        std::vector<std::pair<double, std::uint32_t>> on;
+        for (int c = 0; c < chunks; ++c) {
+            const Vec2 c0 = a + (double(c) / chunks) * d, c1 = a + (double(c + 1) / chunks) * d;
+            bvh.query(box_around(c0, c1, eps), [&](std::uint32_t id) {
+                if (id == v0 || id == v1) return;
+                const double t = dot2(pts[id] - a, d) / dd;
+                if (t > 0.0 && t < 1.0 && len2(a + t * d - pts[id]) <= eps) on.push_back({t, id});
+            });
+        }
+        std::sort(on.begin(), on.end());
+        std::uint32_t prev = v0;
+        for (const auto& [t, id] : on) {
+            if (id == prev) continue;
+            add_piece(prev, id);
+            prev = id;
+        }
+        add_piece(prev, v1);
+    }
+    return routed;
+}
+
+/// Copies the first CDT's vertices and constrained edges into `cdt2` for refinement, and
+/// which of its edges toggle inside/outside (`toggles` on the first CDT's edges). The exact
+/// crossings of nearly concurrent shadow edges round to points 1e-16 m apart, or onto a
+/// constraint they are not on; the mesher then split such an edge until its midpoint was an
+/// endpoint and crashed (issue 19). So vertices closer than eps = max(h, 1e-10 x the region's
+/// size) become one (represented by an input vertex, else a boundary vertex: two input
+/// vertices are never merged, the boundary does not move), and a constrained edge passing
+/// within eps of a vertex is routed through it. `to2` maps every first-CDT vertex. Returns the
+/// region's size (the diagonal of its vertices' bounding box).
+template <class Toggles>
+double copy_for_refinement(
+    const Cdt1& cdt, const RegionState& in,
+    const std::vector<std::vector<Cdt1::Vertex_handle>>& chains, double h, Toggles&& toggles,
+    Cdt2& cdt2, std::unordered_map<Cdt1::Vertex_handle, Cdt2::Vertex_handle>& to2,
+    std::set<std::pair<Cdt2::Vertex_handle, Cdt2::Vertex_handle>>& toggle_edges) {
+    // The vertices, rounded, input vertices first, then boundary vertices
+    std::unordered_set<Cdt1::Vertex_handle> on_boundary;
+    for (const auto& chain : chains) on_boundary.insert(chain.begin(), chain.end());
+    std::vector<Cdt1::Vertex_handle> v1;
+    std::vector<int> rank;
+    Box bounds;
+    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
+        const std::uint32_t id = v->info().id;
+        v1.push_back(v);
+        rank.push_back(id != kNone && in.verts[id].source != kNewVertex ? 0
+                       : on_boundary.count(v) != 0                      ? 1
+                                                                        : 2);
+        bounds.grow(
+            glm::dvec3(CGAL::to_double(v->point().x()), CGAL::to_double(v->point().y()), 0.0));
+    }
+    std::vector<std::uint32_t> order(v1.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint32_t a, std::uint32_t b) { return rank[a] < rank[b]; });
+    const double scale = std::max(1e-300, glm::length(bounds.hi - bounds.lo));
+    const double eps = std::max(h, 1e-10 * scale);
+
+    // Merge each vertex into a representative within eps (never an input vertex into another)
+    std::vector<Vec2> reps;
+    std::vector<std::uint32_t> rep_of(v1.size());
+    std::vector<Cdt1::Vertex_handle> rep_vertex;
+    PointGrid grid(eps);
+    for (const std::uint32_t i : order) {
+        const Vec2 p{CGAL::to_double(v1[i]->point().x()), CGAL::to_double(v1[i]->point().y())};
+        std::uint32_t best = kNone;
+        double best_d = eps;
+        if (rank[i] > 0) {
+            grid.near(p, [&](std::uint32_t r) {
+                const double d = len2(reps[r] - p);
+                if (d <= best_d) {
+                    best_d = d;
+                    best = r;
+                }
+            });
+        }
+        if (best == kNone) {
+            best = static_cast<std::uint32_t>(reps.size());
+            reps.push_back(p);
+            rep_vertex.push_back(v1[i]);
+            grid.add(p, best);
+        }
+        rep_of[i] = best;
+    }
+    std::vector<Cdt2::Vertex_handle> handle(reps.size());
+    Cdt2::Face_handle hint;
+    for (std::uint32_t r : insertion_order_of(reps)) {
+        handle[r] = cdt2.insert(K::Point_2(reps[r].x, reps[r].y), hint);
+        handle[r]->info() = rep_vertex[r]->info();
+        hint = handle[r]->face();
+    }
+    std::unordered_map<Cdt1::Vertex_handle, std::uint32_t> index;
+    for (std::uint32_t i = 0; i < v1.size(); ++i) {
+        index.emplace(v1[i], rep_of[i]);
+        to2.emplace(v1[i], handle[rep_of[i]]);
+    }
+
+    // Constrained edges between representatives, routed through the ones within eps; an
+    // edge toggles when an odd number of toggling first-CDT edges lie along it
+    std::vector<std::array<std::uint32_t, 2>> edges;
+    std::vector<char> toggling;
+    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
+        if (!cdt.is_constrained(*e)) continue;
+        const std::uint32_t a = index.at(e->first->vertex(cdt.cw(e->second))),
+                            b = index.at(e->first->vertex(cdt.ccw(e->second)));
+        if (a == b) continue;
+        edges.push_back({a, b});
+        toggling.push_back(toggles(e->first, e->second) ? 1 : 0);
+    }
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> toggle_count;
+    std::vector<std::uint32_t> source;
+    const auto pieces = route_segments(reps, edges, eps, scale, &source);
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+        const auto& piece = pieces[k];
+        cdt2.insert_constraint(handle[piece[0]], handle[piece[1]]);
+        if (toggling[source[k]] != 0)
+            ++toggle_count[{std::min(piece[0], piece[1]), std::max(piece[0], piece[1])}];
+    }
+    for (const auto& [key, count] : toggle_count) {
+        if (count % 2 == 0) continue;
+        const Cdt2::Vertex_handle a = handle[key.first], b = handle[key.second];
+        toggle_edges.insert(a < b ? std::pair(a, b) : std::pair(b, a));
+    }
+    return scale;
+}
+
 /// Triangulates one region from its state; refines when min_angle_deg > 0.
-MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_angle_deg) {
+MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_angle_deg,
+                    double h) {
     const Frame& frame = setup.frame;
     Cdt1 cdt;
 
@@ -411,28 +655,16 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
             is_segment);
     }
 
-    // Refinement: copy vertices and constrained edges into a CDT the mesher accepts
+    // Refinement: copy vertices and constrained edges into a CDT the mesher accepts, without
+    // the features below merge_distance that rounding the exact crossings leaves
     Cdt2 cdt2;
     std::unordered_map<Cdt1::Vertex_handle, Cdt2::Vertex_handle> to2;
-    Cdt2::Face_handle hint2;
-    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
-        const Cdt2::Vertex_handle w = cdt2.insert(
-            K::Point_2(CGAL::to_double(v->point().x()), CGAL::to_double(v->point().y())), hint2);
-        w->info() = v->info();
-        hint2 = w->face();
-        to2.emplace(v, w);
-    }
-    std::set<std::pair<Cdt2::Vertex_handle, Cdt2::Vertex_handle>> toggle_edges, segment_edges;
+    std::set<std::pair<Cdt2::Vertex_handle, Cdt2::Vertex_handle>> toggle_edges;
+    const double region_size =
+        copy_for_refinement(cdt, in, chains, h, toggles, cdt2, to2, toggle_edges);
     auto edge_key = [](Cdt2::Vertex_handle a, Cdt2::Vertex_handle b) {
         return a < b ? std::pair(a, b) : std::pair(b, a);
     };
-    for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
-        if (!cdt.is_constrained(*e)) continue;
-        const auto a = to2.at(e->first->vertex(cdt.cw(e->second))),
-                   b = to2.at(e->first->vertex(cdt.ccw(e->second)));
-        cdt2.insert_constraint(a, b);
-        if (toggles(e->first, e->second)) toggle_edges.insert(edge_key(a, b));
-    }
     // Mark the inside faces by the same parity rule
     for (auto f = cdt2.all_faces_begin(); f != cdt2.all_faces_end(); ++f) f->set_in_domain(false);
     {
@@ -459,7 +691,7 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
         }
     }
     const double s = std::sin(min_angle_deg * 3.14159265358979323846 / 180.0);
-    Mesher mesher(cdt2, Criteria(s * s, 0.0));
+    Mesher mesher(cdt2, Criteria(s * s, kQualityFloor * region_size));
     mesher.init(true);
     mesher.refine_mesh();
 
@@ -489,34 +721,6 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
 
 // ---------------------------------------------------------------------------------------------
 // Round 0: the meshing input of a region from the PlanarRegion
-
-/// Uniform grid hash over 2D points, cell = merge distance.
-class PointGrid {
-  public:
-    explicit PointGrid(double cell) : m_inv(1.0 / cell) {}
-    void add(Vec2 p, std::uint32_t id) { m_cells[key(cell_of(p.x), cell_of(p.y))].push_back(id); }
-    template <class F>
-    void near(Vec2 p, F&& f) const {
-        const std::int64_t cx = cell_of(p.x), cy = cell_of(p.y);
-        for (std::int64_t dx = -1; dx <= 1; ++dx)
-            for (std::int64_t dy = -1; dy <= 1; ++dy) {
-                auto it = m_cells.find(key(cx + dx, cy + dy));
-                if (it != m_cells.end())
-                    for (std::uint32_t id : it->second) f(id);
-            }
-    }
-
-  private:
-    std::int64_t cell_of(double x) const {
-        return static_cast<std::int64_t>(std::floor(x * m_inv));
-    }
-    static std::uint64_t key(std::int64_t x, std::int64_t y) {
-        return static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
-               static_cast<std::uint64_t>(y);
-    }
-    double m_inv;
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> m_cells;
-};
 
 /// A split point found on a boundary edge of a region by the global search.
 struct SplitHit {
@@ -578,13 +782,6 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
         tri_boxes.push_back(b);
     }
     const Bvh edge_bvh(std::move(edge_boxes)), tri_bvh(std::move(tri_boxes));
-    auto box_around = [](Vec2 a, Vec2 b, double r) {
-        Box q;
-        q.grow(glm::dvec3(a.x, a.y, 0.0));
-        q.grow(glm::dvec3(b.x, b.y, 0.0));
-        q.inflate(r);
-        return q;
-    };
 
     // Snap a 2D point to a vertex, else onto boundary edges, else make a free vertex
     auto snap = [&](Vec2 p) -> std::uint32_t {
@@ -715,43 +912,9 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
 
     // Route each segment through the vertices within h of its interior: a constraint passing a
     // vertex at 1e-17 would otherwise leave a zero-area sliver with that vertex on its edge
-    std::vector<Box> vertex_boxes(st.verts.size());
-    for (std::size_t i = 0; i < st.verts.size(); ++i)
-        vertex_boxes[i].grow(glm::dvec3(st.verts[i].p.x, st.verts[i].p.y, 0.0));
-    const Bvh vertex_bvh(std::move(vertex_boxes));
-    std::vector<std::array<std::uint32_t, 2>> routed;
-    seen_segments.clear();
-    auto add_piece = [&](std::uint32_t v0, std::uint32_t v1) {
-        if (v0 != v1 && seen_segments.insert({std::min(v0, v1), std::max(v0, v1)}).second)
-            routed.push_back({v0, v1});
-    };
-    for (const auto& segment : st.segments) {
-        // Plain variables, not a structured binding: clang 14 (clang-tidy) cannot capture
-        // structured bindings in the lambda below
-        const std::uint32_t v0 = segment[0], v1 = segment[1];
-        const Vec2 a = st.verts[v0].p, d = st.verts[v1].p - a;
-        const double dd = dot2(d, d);
-        const int chunks = static_cast<int>(std::clamp(std::sqrt(dd) / scale * 64.0, 1.0, 256.0));
-        std::vector<std::pair<double, std::uint32_t>> on;
-        for (int c = 0; c < chunks; ++c) {
-            const Vec2 c0 = a + (double(c) / chunks) * d, c1 = a + (double(c + 1) / chunks) * d;
-            vertex_bvh.query(box_around(c0, c1, h), [&](std::uint32_t id) {
-                if (id == v0 || id == v1) return;
-                const double t = dot2(st.verts[id].p - a, d) / dd;
-                if (t > 0.0 && t < 1.0 && len2(a + t * d - st.verts[id].p) <= h)
-                    on.push_back({t, id});
-            });
-        }
-        std::sort(on.begin(), on.end());
-        std::uint32_t prev = v0;
-        for (const auto& [t, id] : on) {
-            if (id == prev) continue;
-            add_piece(prev, id);
-            prev = id;
-        }
-        add_piece(prev, v1);
-    }
-    st.segments = std::move(routed);
+    std::vector<Vec2> points(st.verts.size());
+    for (std::size_t i = 0; i < st.verts.size(); ++i) points[i] = st.verts[i].p;
+    st.segments = route_segments(points, st.segments, h, scale);
     return st;
 }
 
@@ -879,7 +1042,7 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
                 }
                 pending[r].clear();
             }
-            MeshRun run = triangulate(setups[r], states[r], angle);
+            MeshRun run = triangulate(setups[r], states[r], angle, h);
             states[r] = std::move(run.next);
             outputs[r] = std::move(run.out);
         });

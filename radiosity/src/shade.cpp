@@ -4,24 +4,76 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <mutex>
 #include <vector>
 
+#include "abrad/radiosity/form_factor.h"
 #include "abrad/radiosity/point_source.h"
+#include "abrad/radiosity/polygon.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
 
-double add_patch_irradiance(const ShootResult& shot, const visdb::Rgb& emittance, double light_area,
+namespace {
+
+/// A hemicube form factor this many times the closed form marks an undersampled patch.
+constexpr double kUndersampled = 2.0;
+
+/// Form factor from the shooting point `from` to the part of `p` in front of it, without
+/// occluders: what a hemicube at `from` could give `p` at most.
+double unoccluded_form_factor(const ShooterFrame& from, const Patch& p) {
+    Polygon3 poly;
+    for (const glm::dvec3& x : p.p) poly.push_back(x);
+    poly =
+        clip_polygon(poly, [&](const glm::dvec3& x) { return glm::dot(x - from.origin, from.n); });
+    if (poly.size() < 3) return 0.0;
+    return point_polygon_form_factor(from.origin, from.n, {poly.begin(), poly.end()});
+}
+
+}  // namespace
+
+double add_patch_irradiance(const ShootResult& shot, const ShooterFrame& from,
+                            const visdb::Rgb& emittance, double light_area,
                             const BakeGeometry& target,
                             std::vector<visdb::Rgb>& triangle_irradiance) {
     double ff_sum = 0.0;
     for (std::size_t j = 0; j < target.patches.size(); ++j) {
         if (shot.form_factor[j] <= 0.0 || !(target.area[j] > 0.0)) continue;
         ff_sum += shot.form_factor[j];
-        triangle_irradiance[j] += emittance * (shot.form_factor[j] * light_area / target.area[j]);
+        // A patch smaller than a hemicube sample still takes a whole (fine) sample, and
+        // dividing the light's share by a sliver's tiny area made it 300-1,700 times too
+        // bright. A form factor more than kUndersampled times the closed form of the patch's
+        // unoccluded view from the shooting point can only be that: it is replaced by the
+        // closed form (pixel-edge errors of larger patches, either way, stay as they were).
+        // The receiver's form factor to the light F_jL = F_Lj A_L / A_j is at most 1.
+        double f = shot.form_factor[j];
+        const double f_max = unoccluded_form_factor(from, target.patches[j]);
+        if (f > kUndersampled * f_max) f = f_max;
+        const double f_receiver = std::min(1.0, f * light_area / target.area[j]);
+        triangle_irradiance[j] += emittance * f_receiver;
     }
     return ff_sum;
+}
+
+double add_flux_irradiance(const ShootResult& shot, const visdb::Rgb& flux,
+                           const BakeGeometry& target,
+                           std::vector<visdb::Rgb>& triangle_irradiance) {
+    double ff_sum = 0.0;
+    for (std::size_t j = 0; j < target.patches.size(); ++j) {
+        if (shot.form_factor[j] <= 0.0 || !(target.area[j] > 0.0)) continue;
+        ff_sum += shot.form_factor[j];
+        triangle_irradiance[j] += flux * (shot.form_factor[j] / target.area[j]);
+    }
+    return ff_sum;
+}
+
+void bound_by_exitance(const BakeGeometry& lights, std::vector<visdb::Rgb>& triangle_irradiance) {
+    visdb::Rgb e_max(0.0);
+    for (const std::uint32_t l : lights.lights) e_max = glm::max(e_max, lights.emittance[l]);
+    for (visdb::Rgb& h : triangle_irradiance) h = glm::min(h, e_max);
 }
 
 std::vector<visdb::Rgb> average_to_vertices(const BakeGeometry& g,
@@ -49,17 +101,19 @@ std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeom
     tbb::parallel_for(std::size_t{0}, lights.lights.size(), [&](std::size_t li) {
         const std::uint32_t l = lights.lights[li];
         // The light's own pieces lie in the shooter's plane and receive nothing
-        const ShootResult shot = shoot(frame_of(lights.patches[l]), target.patches, hemicube, so);
+        const ShooterFrame frame = frame_of(lights.patches[l]);
+        const ShootResult shot = shoot(frame, target.patches, hemicube, so);
         std::vector<visdb::Rgb> mine(tri.size(), visdb::Rgb(0.0));
-        add_patch_irradiance(shot, lights.emittance[l], lights.area[l], target, mine);
+        add_patch_irradiance(shot, frame, lights.emittance[l], lights.area[l], target, mine);
         std::lock_guard lock(accumulate);
         for (std::size_t j = 0; j < tri.size(); ++j) tri[j] += mine[j];
     });
+    bound_by_exitance(lights, tri);
     // Luminaires: their point-source hemicubes, each pixel a fraction of the flux
     for (const visdb::Luminaire& lum : lights.luminaires)
         for (const PointShooter& shooter : point_shooters(lum, hemicube.resolution()))
-            add_patch_irradiance(shoot(shooter.frame, target.patches, shooter.hemicube, so),
-                                 luminaire_power(lum), 1.0, target, tri);
+            add_flux_irradiance(shoot(shooter.frame, target.patches, shooter.hemicube, so),
+                                luminaire_power(lum), target, tri);
     return average_to_vertices(target, tri);
 }
 

@@ -257,12 +257,13 @@ OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh
     out.near = light_candidates(bvh, g.patches, l, options.reach);
     out.near_vertices = vertices_of(out.near, g.mesh.triangles);
     so.only = &out.near;
-    const ShootResult shot = shoot(frame_of(g.patches[l]), g.patches, hemicube, so);
+    const ShooterFrame from = frame_of(g.patches[l]);
+    const ShootResult shot = shoot(from, g.patches, hemicube, so);
     out.shoot.seconds_cpu = seconds_since(t0);
 
     out.triangle.assign(g.patches.size(), visdb::Rgb(0.0));
     out.shoot.form_factor_sum =
-        add_patch_irradiance(shot, g.emittance[l], g.area[l], g, out.triangle);
+        add_patch_irradiance(shot, from, g.emittance[l], g.area[l], g, out.triangle);
     out.shoot.fragments = shot.fragments;
     out.shoot.undersampled_fragments = shot.undersampled_pixels;
     out.shoot.occlusion_pairs = shot.occlusion.size();
@@ -372,7 +373,7 @@ OneLight shoot_luminaire(const BakeGeometry& g, const Regions& regions, const Bv
     const visdb::Rgb power = luminaire_power(lum);
     for (const PointShooter& shooter : point_shooters(lum, options.resolution)) {
         const ShootResult shot = shoot(shooter.frame, g.patches, shooter.hemicube, so);
-        out.shoot.form_factor_sum += add_patch_irradiance(shot, power, 1.0, g, out.triangle);
+        out.shoot.form_factor_sum += add_flux_irradiance(shot, power, g, out.triangle);
         out.shoot.fragments += shot.fragments;
         out.shoot.undersampled_fragments += shot.undersampled_pixels;
     }

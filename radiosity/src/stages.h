@@ -117,15 +117,30 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
 std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeometry& target,
                                       const Hemicube& hemicube, const BakeOptions& options);
 
+/// Bounds each triangle's patch irradiance from the area lights of `lights` by the brightest
+/// light's exitance (per channel): a receiver's form factors to all lights add up to at most 1.
+/// Only for irradiance from area lights: a point source has no exitance to bound it by.
+void bound_by_exitance(const BakeGeometry& lights, std::vector<visdb::Rgb>& triangle_irradiance);
+
 /// Each vertex of `g` gets the area-weighted patch irradiance of its triangles.
 std::vector<visdb::Rgb> average_to_vertices(const BakeGeometry& g,
                                             const std::vector<visdb::Rgb>& triangle_irradiance);
 
-/// Patch irradiance H_j += E_L · F_Lj · A_L / A_j of every triangle of `target` from one
-/// shot; returns Σ F.
-double add_patch_irradiance(const ShootResult& shot, const visdb::Rgb& emittance, double light_area,
+/// Patch irradiance H_j += E_L · F_jL of every triangle of `target` from one shot from
+/// `from` (a light triangle's centroid and normal), with F_jL = F_Lj · A_L / A_j where F_Lj is
+/// the shot's form factor, replaced by the unoccluded closed form from `from` to j when it is
+/// more than twice that (a sliver smaller than a hemicube sample), and F_jL at most 1;
+/// returns Σ F_Lj of the shot.
+double add_patch_irradiance(const ShootResult& shot, const ShooterFrame& from,
+                            const visdb::Rgb& emittance, double light_area,
                             const BakeGeometry& target,
                             std::vector<visdb::Rgb>& triangle_irradiance);
+
+/// Patch irradiance H_j += Φ · F_j / A_j of every triangle of `target` from a luminaire's
+/// weighted hemicube (F_j the fraction of the flux Φ that j takes); returns Σ F_j.
+double add_flux_irradiance(const ShootResult& shot, const visdb::Rgb& flux,
+                           const BakeGeometry& target,
+                           std::vector<visdb::Rgb>& triangle_irradiance);
 
 /// Irradiance H = direct + (with `indirect`) the interpolated indirect part, and radiosity
 /// B = E + ρH at every vertex of `target`; `vertex_region` gives each vertex's planar region

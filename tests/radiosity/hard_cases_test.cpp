@@ -139,6 +139,111 @@ TEST(HardCases, SliversAndNearZeroAreaTrianglesGetTheClosedForm) {
     }
 }
 
+// A one-triangle surface of the floor's material (a needle or a sliver).
+visdb::Surface one_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    visdb::Surface s;
+    s.name = "sliver";
+    s.material = 0;
+    s.mesh.positions = {a, b, c};
+    s.mesh.triangles = {{0, 1, 2}};
+    return s;
+}
+
+// Bakes `scene` with patch shading, direct light only, without and with DM, and calls
+// check(dm, surface, irradiance) at every vertex of the surfaces after the floor and the
+// light; at least `least` such vertices in each bake.
+template <typename Check>
+void for_patch_bakes(const visdb::Scene& scene, Check&& check, int least) {
+    for (bool dm : {false, true}) {
+        SCOPED_TRACE(dm ? "with DM" : "without DM");
+        BakeOptions o = direct();
+        o.dm = dm;
+        o.shading = Shading::Patch;
+        const visdb::Bake b = bake(scene, o);
+        expect_sane(b);
+        int checked = 0;
+        for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+            const std::uint32_t surface = b.mesh.triangle_surface[t];
+            if (surface < 2) continue;
+            for (int k = 0; k < 3; ++k)
+                check(dm, surface, b.mesh.irradiance[b.mesh.triangles[t][k]]);
+            checked += 3;
+        }
+        EXPECT_GE(checked, least);
+    }
+}
+
+// Patch irradiance of a needle on the floor plane from (x0, y) to (x1, y), widening linearly
+// to its end at x1: the area-weighted mean of the closed form along it (weight x - x0).
+double needle_closed_form(double x0, double x1, double y) {
+    constexpr int kSteps = 2000;
+    double sum = 0.0, weight = 0.0;
+    for (int i = 0; i < kSteps; ++i) {
+        const double x = x0 + (x1 - x0) * (i + 0.5) / kSteps;
+        sum += (x - x0) * ff_light({x, y, 0.0});
+        weight += x - x0;
+    }
+    return kGreen * sum / weight;
+}
+
+// Found by issue 19: a needle receiver (1.2 m long, 20 µm wide at its end) smaller than a
+// hemicube sample took a whole fine sample's delta form factor, and dividing the light's share
+// by its tiny area gave 300-1,700 times its irradiance in patch shading. Its form factor is
+// now bounded by the closed form of its view from the shooting point (shade.cpp), so the
+// patch value is the paper's point-light estimate of the closed form.
+TEST(HardCases, NeedleReceiversGetTheirClosedFormInPatchShading) {
+    visdb::Scene scene = base_scene();
+    struct Needle {
+        double x0, x1, y;
+    };
+    const std::vector<Needle> needles = {{-0.6, 0.6, 1.1}, {-0.2, 0.3, 1.4}, {1.2, 1.9, 0.3}};
+    for (const Needle& n : needles)
+        scene.surfaces.push_back(
+            one_triangle({n.x0, n.y, 0}, {n.x1, n.y, 0}, {n.x1, n.y + 2e-5, 0}));
+    for_patch_bakes(
+        scene,
+        [&](bool dm, std::uint32_t surface, const glm::vec3& h) {
+            const Needle& n = needles[surface - 2];
+            // Without DM the needle is one triangle: its patch value is the paper's
+            // point-light estimate of the area-weighted mean (off-axis, 10 % from it). With DM
+            // it is split, each vertex averaging its own pieces: within the closed form's
+            // range along the needle
+            if (!dm) {
+                const double mean = needle_closed_form(n.x0, n.x1, n.y);
+                EXPECT_NEAR(h.y, mean, 0.15 * mean) << "needle " << surface - 2;
+            }
+            double lo = 1e300, hi = 0.0;
+            for (int i = 0; i <= 100; ++i) {
+                const double f = kGreen * ff_light({n.x0 + (n.x1 - n.x0) * i / 100.0, n.y, 0.0});
+                lo = std::min(lo, f);
+                hi = std::max(hi, f);
+            }
+            EXPECT_GE(h.y, 0.8 * lo) << "needle " << surface - 2 << " dm " << dm;
+            EXPECT_LE(h.y, 1.2 * hi) << "needle " << surface - 2 << " dm " << dm;
+        },
+        9);
+}
+
+// A sliver 1 mm under a light triangle's centroid, facing it, sees almost nothing but the
+// light (the closed form is 0.998 E): its patch irradiance is at most the light's exitance
+// (the receiver's form factors add up to at most 1), where the point-light estimate
+// A_L cos cos / (pi r^2) of that light triangle is 1.6e5.
+TEST(HardCases, SliverUnderTheLightGetsAtMostItsExitance) {
+    visdb::Scene scene = base_scene();
+    const double cx = 1.0 / 6, cy = -1.0 / 6;  // a light triangle's centroid (scenes.h)
+    scene.surfaces.push_back(one_triangle({cx - 1e-4, cy, 1.499}, {cx + 1e-4, cy, 1.499},
+                                          {cx + 1e-4, cy + 1e-7, 1.499}));
+    for_patch_bakes(
+        scene,
+        [](bool, std::uint32_t, const glm::vec3& h) {
+            EXPECT_LE(h.x, 10.0f);
+            EXPECT_LE(h.y, 20.0f);
+            EXPECT_LE(h.z, 5.0f);
+            EXPECT_GT(h.y, 0.95f * 20.0f);  // the closed form is about 0.998 E
+        },
+        3);
+}
+
 TEST(HardCases, CoplanarOverlappingFacesDoNotShadowEachOther) {
     visdb::Scene scene = base_scene();
     // A rug lying exactly on the floor, overlapping it (z-fighting)

@@ -7,6 +7,7 @@
 #include <sqlite3.h>
 #include <sys/stat.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 
@@ -99,6 +100,105 @@ TEST(HostileInput, AReaderThatCrashesIsExitTwoAndTheDatabaseUnchanged) {
     EXPECT_NE(t.output.find("abrad import: " + scene.string() + ": "), std::string::npos)
         << t.output;
     EXPECT_EQ(file_bytes(db), before);
+}
+
+// An OpenEXR header (version 2, scan lines, no compression) claiming width x height pixels of
+// three half channels, and its table of scan-line offsets (all 0), without any pixels.
+std::string exr_header(int width, int height) {
+    std::string h("\x76\x2f\x31\x01\x02\x00\x00\x00", 8);
+    auto i32 = [](std::int32_t v) {
+        std::string b(4, '\0');
+        for (int k = 0; k < 4; ++k) b[k] = static_cast<char>((v >> (8 * k)) & 0xFF);
+        return b;
+    };
+    auto attribute = [&](const std::string& name, const std::string& type,
+                         const std::string& value) {
+        h += name + '\0' + type + '\0' + i32(static_cast<std::int32_t>(value.size())) + value;
+    };
+    std::string channels;
+    for (const char* c : {"B", "G", "R"})  // half (1), pLinear 0, reserved, x/y sampling 1
+        channels += std::string(c) + '\0' + i32(1) + std::string(4, '\0') + i32(1) + i32(1);
+    channels += '\0';
+    const std::string window = i32(0) + i32(0) + i32(width - 1) + i32(height - 1);
+    const std::string one = i32(0x3f800000);  // 1.0f
+    attribute("channels", "chlist", channels);
+    attribute("compression", "compression", std::string(1, '\0'));
+    attribute("dataWindow", "box2i", window);
+    attribute("displayWindow", "box2i", window);
+    attribute("lineOrder", "lineOrder", std::string(1, '\0'));
+    attribute("pixelAspectRatio", "float", one);
+    attribute("screenWindowCenter", "v2f", i32(0) + i32(0));
+    attribute("screenWindowWidth", "float", one);
+    h += '\0';
+    h += std::string(8 * static_cast<std::size_t>(height), '\0');  // the scan lines' offsets
+    return h;
+}
+
+// A glTF whose buffer lies outside the model's folder: Assimp opened any file the model named
+// (issue 19). Refused like an OBJ's mtllib unless --allow-outside-refs.
+TEST(HostileInput, AGltfBufferOutsideTheModelsFolderIsRefused) {
+    TempDir dir("hostile");
+    const fs::path db = dir / "room.visdb";
+    fs::create_directories(dir / "model");
+    std::string triangle(36, '\0');  // (0,0,0) (1,0,0) (0,1,0) as little-endian floats
+    triangle[12 + 2] = triangle[24 + 6] = '\x80';
+    triangle[12 + 3] = triangle[24 + 7] = '\x3f';
+    (void)dir.write("outside.bin", triangle);
+    const fs::path gltf = dir.write(
+        "model/tri.gltf",
+        R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],)"
+        R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"accessors":[{)"
+        R"("bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],)"
+        R"("max":[1,1,0]}],"bufferViews":[{"buffer":0,"byteLength":36}],)"
+        R"("buffers":[{"uri":"../outside.bin","byteLength":36}]})");
+    const Result r = run_abrad("import " + gltf.string() + " --db " + db.string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("abrad import: " + gltf.string() +
+                            ": referenced file (buffer, texture or library) '"),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("is outside the model's folder"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(db));
+    const Result ok =
+        run_abrad("import " + gltf.string() + " --allow-outside-refs --db " + db.string());
+    EXPECT_EQ(ok.status, 0) << ok.output;
+}
+
+// A truncated .gltf said only "No suitable reader found" (issue 19): the JSON is checked
+// first, and the message names the line and column where it breaks
+TEST(HostileInput, ABrokenGltfNamesTheLineAndColumn) {
+    TempDir dir("hostile");
+    const fs::path db = dir / "room.visdb";
+    const fs::path cut =
+        dir.write("cut.gltf", "{\n\"asset\": {\"version\": \"2.0\"},\n\"scenes\": [{\"no");
+    const fs::path bad =
+        dir.write("bad.gltf", "{\n\"asset\": {\"version\": \"2.0\"},\n  \"scene\": 0,,\n}");
+    for (const auto& [model, where] :
+         {std::pair{cut, cut.string() + ":3: column 16 (byte 46): not valid glTF JSON: "},
+          std::pair{bad, bad.string() + ":3: column 14 (byte 44): not valid glTF JSON: "}}) {
+        const Result r = run_abrad("import " + model.string() + " --db " + db.string());
+        EXPECT_EQ(r.status, 2) << r.output;
+        EXPECT_NE(r.output.find("abrad import: " + where), std::string::npos) << r.output;
+        EXPECT_FALSE(fs::exists(db));
+    }
+}
+
+// compare allocated the pixels an EXR header claimed (10^6 x 48 in a file of a few hundred
+// bytes: gigabytes, issue 19): the claimed size is checked against the file's size first
+TEST(HostileInput, AnImageHeaderClaimingMorePixelsThanItsFileHoldsIsRefused) {
+    TempDir dir("hostile");
+    const fs::path bomb = dir.write("bomb.exr", exr_header(1000000, 48));
+    const fs::path small = dir.write("small.exr", exr_header(4, 4));
+    const Result r = run_abrad("compare " + bomb.string() + " " + small.string());
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find(bomb.string() + ": the image header claims 1000000x48 pixels of 3 "
+                                            "channels"),
+              std::string::npos)
+        << r.output;
+    // A small header without its pixels is still the reader's error (exit 2), not this one
+    const Result s = run_abrad("compare " + small.string() + " " + small.string());
+    EXPECT_EQ(s.status, 2) << s.output;
+    EXPECT_EQ(s.output.find("claims"), std::string::npos) << s.output;
 }
 
 // Numbers that overflowed the bake to inf/NaN with exit 0 (issue 19)

@@ -1,8 +1,11 @@
 // abrad compare: two images compared in linear light (RMSE, PSNR, max error), a difference
 // image and a side-by-side strip (export/compose.h), exit 1 past a threshold.
 
+#include <OpenImageIO/imageio.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -47,6 +50,34 @@ std::vector<std::string> missed(const CompareArgs& c, const exporter::ImageDiffe
     return failed;
 }
 
+// Decoded bytes an image file may claim per byte it holds: deflate (PNG, EXR's ZIP and DWA)
+// stops at 1,032 to 1, EXR's RLE at 64 to 1, PIZ and B44 lower.
+constexpr double kMaxExpansion = 1100.0;
+// Images up to this many decoded bytes are read whatever their file size.
+constexpr double kAlwaysReadBytes = 64.0 * 1024 * 1024;
+
+// An image header can claim any size: refuses one whose pixels no file of its size can hold,
+// before a pixel is allocated (an EXR header claiming 10^6 x 48 pixels in 400 bytes).
+void check_claimed_size(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return;  // read_image says why
+    const auto file_bytes = std::filesystem::file_size(path, ec);
+    if (ec) return;
+    const auto in = OIIO::ImageInput::open(path);
+    if (!in) return;  // read_image reports the reader's message
+    const OIIO::ImageSpec& spec = in->spec();
+    const double pixels = static_cast<double>(spec.width) * static_cast<double>(spec.height) *
+                          static_cast<double>(std::max(1, spec.depth));
+    const double decoded =
+        pixels * std::max(1, spec.nchannels) * static_cast<double>(spec.format.size());
+    if (decoded > kAlwaysReadBytes && decoded > kMaxExpansion * static_cast<double>(file_bytes)) {
+        bad_input(path + ": the image header claims " + std::to_string(spec.width) + "x" +
+                  std::to_string(spec.height) + " pixels of " + std::to_string(spec.nchannels) +
+                  " channels (" + text(decoded) + " bytes), more than a file of " +
+                  std::to_string(file_bytes) + " bytes can hold");
+    }
+}
+
 }  // namespace
 
 void add_compare(CLI::App& app) {
@@ -71,6 +102,8 @@ void add_compare(CLI::App& app) {
 int run_compare(const Invocation&) {
     const CompareArgs& c = state();
     exporter::Image a, b;
+    check_claimed_size(c.a);
+    check_claimed_size(c.b);
     try {
         a = exporter::read_image(c.a);
         b = exporter::read_image(c.b);
