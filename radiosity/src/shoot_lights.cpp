@@ -40,14 +40,16 @@ bool wholly_behind(const Patch& c, const glm::dvec3& on, const glm::dvec3& n) {
 // False when `c` cannot hide any part of `light` from any part of `receiver`:
 // - the six corners lie on one closed side of c's plane, so no segment between them crosses
 //   it (a floor cannot shadow a wall standing on it; a wall cannot shadow the floor);
-// - c lies wholly behind the light's plane or the receiver's: a segment that carries light
+// - c lies wholly behind an area light's plane or the receiver's: a segment that carries light
 //   runs in front of both but for its ends (the other triangles of a closed emitter, all
 //   behind each of its triangles' planes, do not shadow it).
 bool can_occlude(const Patch& c, const Patch& light, const Patch& receiver) {
     const glm::dvec3 cr = cross_normal(c);
     const double len = glm::length(cr);
     if (!(len > 0.0)) return false;
-    if (wholly_behind(c, light.p[0], unit_normal(light)) ||
+    // (a point source, given as a triangle of three equal corners, has no plane to be behind)
+    const bool area_light = glm::length(cross_normal(light)) > 0.0;
+    if ((area_light && wholly_behind(c, light.p[0], unit_normal(light))) ||
         wholly_behind(c, receiver.p[0], unit_normal(receiver)))
         return false;
     const glm::dvec3 n = cr / len;
