@@ -101,6 +101,16 @@ struct OneLight {
     visdb::ShadowEdgeStats shadow;
 };
 
+// Adds one task's shadow segments and counters to the light's (the caller holds the lock).
+void add_segments(const std::vector<LitSegment>& here, const ShadowStats& s,
+                  visdb::ShadowEdgeStats counts, OneLight& out) {
+    out.segments.insert(out.segments.end(), here.begin(), here.end());
+    counts.edges_projected += s.edges_projected;
+    counts.shared_edges_skipped += s.shared_edges_skipped;
+    counts.segments_split += s.segments_split;
+    out.shadow += counts;
+}
+
 // Exact vertex irradiance from light l past the occluders the fragment lists found.
 // Candidates: the occlusion lists of the vertex's triangles (Algorithm 2, from the light's
 // centroid), completed by a conservative bounding-volume query of the region between the
@@ -236,11 +246,7 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                 }
             }
             std::lock_guard lock(accumulate);
-            out.segments.insert(out.segments.end(), here.begin(), here.end());
-            counts.edges_projected += s.edges_projected;
-            counts.shared_edges_skipped += s.shared_edges_skipped;
-            counts.segments_split += s.segments_split;
-            out.shadow += counts;
+            add_segments(here, s, counts, out);
         });
 }
 
@@ -346,11 +352,7 @@ void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, c
                 }
             }
             std::lock_guard lock(accumulate);
-            out.segments.insert(out.segments.end(), here.begin(), here.end());
-            counts.edges_projected += s.edges_projected;
-            counts.shared_edges_skipped += s.shared_edges_skipped;
-            counts.segments_split += s.segments_split;
-            out.shadow += counts;
+            add_segments(here, s, counts, out);
         });
 }
 
