@@ -121,17 +121,14 @@ bool occluder_shadow(const LightPlane& lp, const Patch& occ, const glm::dvec2& l
     return true;
 }
 
-// Subtracts the convex `shadow` (letting `transmit` of the light through) from every piece it
-// overlaps: those pieces are replaced by their parts outside it (and, when it lets light
-// through, the part under it); the others stay where they are. `cut` is scratch. True when the
-// shadow covered some piece.
-bool subtract_shadow(std::vector<Piece>& pieces, const Poly2& shadow, double transmit,
+// Subtracts the convex shadow (its polygon and box; letting `transmit` of the light through)
+// from every piece it overlaps: those pieces are replaced by their parts outside it (and, when it
+// lets light through, the part under it); the others stay where they are. `cut` is scratch. True
+// when the shadow covered some piece.
+bool subtract_shadow(std::vector<Piece>& pieces, const Piece& shadow_piece, double transmit,
                      std::vector<Piece>& cut) {
-    glm::dvec2 slo = shadow[0], shi = shadow[0];
-    for (const auto& v : shadow) {
-        slo = glm::min(slo, v);
-        shi = glm::max(shi, v);
-    }
+    const Poly2& shadow = shadow_piece.poly;
+    const glm::dvec2 slo = shadow_piece.lo, shi = shadow_piece.hi;
     cut.clear();
     bool touched = false;
     std::size_t kept = 0;
@@ -214,18 +211,20 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
     // mostly miss what is left, instead of each cutting the light into more pieces. The
     // visible part is the same whatever the order (to rounding).
     struct Shadow {
-        Poly2 poly;
+        Piece piece;  // the polygon and its box (the weight is unused)
         double area2;
         std::uint32_t index;
     };
     thread_local std::vector<Shadow> shadows;
     shadows.clear();
     {
-        Shadow s;
+        Shadow s{};
         for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
             if (stats) ++stats->occluders_tested;
-            if (!occluder_shadow(lp, *occluders[oi], pieces[0].lo, pieces[0].hi, s.poly)) continue;
-            s.area2 = signed_area2(s.poly);
+            if (!occluder_shadow(lp, *occluders[oi], pieces[0].lo, pieces[0].hi, s.piece.poly))
+                continue;
+            bound(s.piece);
+            s.area2 = signed_area2(s.piece.poly);
             s.index = static_cast<std::uint32_t>(oi);
             shadows.push_back(s);
         }
@@ -237,15 +236,11 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
     std::vector<Piece> cut;
     glm::dvec2 lo = pieces[0].lo, hi = pieces[0].hi;  // box of what is left of the light
     for (const Shadow& s : shadows) {
-        glm::dvec2 slo = s.poly[0], shi = s.poly[0];
-        for (const auto& v : s.poly) {
-            slo = glm::min(slo, v);
-            shi = glm::max(shi, v);
-        }
+        const glm::dvec2 slo = s.piece.lo, shi = s.piece.hi;
         if (shi.x <= lo.x || slo.x >= hi.x || shi.y <= lo.y || slo.y >= hi.y) continue;
         const Patch* occ = occluders[s.index];
         const double transmit = 1.0 - std::clamp(occ->opacity, 0.0, 1.0);
-        const bool touched = subtract_shadow(pieces, s.poly, transmit, cut);
+        const bool touched = subtract_shadow(pieces, s.piece, transmit, cut);
         if (touched || !cut.empty()) bound_all(pieces, lo, hi);
         if (touched && stats) {
             ++stats->occluders_projected;
