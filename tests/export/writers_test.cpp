@@ -430,9 +430,6 @@ TEST(PlyWriter, AsciiRoundTripsEveryValue) {
     expect_round_trip(ply, mesh, tone);
 }
 
-// --positions float: x y z as float relative to the header's `comment origin` (whole metres
-// near the model at survey coordinates), which put back give the millimetres; --up y turns
-// positions and normals to (x, z, -y). Everything else as in the contract.
 // --surface-ids vertex: `surface` is the vertices' last property (0 for the floor's four, 1 for
 // the wall's three), the faces hold vertex_indices only; a vertex two surfaces share is refused.
 TEST(PlyWriter, SurfaceIdsOnVertices) {
@@ -477,6 +474,9 @@ TEST(PlyWriter, SurfaceIdsOnVertices) {
     EXPECT_FALSE(fs::exists(dir / "s.ply"));
 }
 
+// --positions float: x y z as float relative to the header's `comment origin` (whole metres
+// near the model at survey coordinates), which put back give the millimetres; --up y turns
+// positions and normals to (x, z, -y). Everything else as in the contract.
 TEST(PlyWriter, FloatPositionsRelativeToOriginAndYUp) {
     TempDir dir;
     const auto mesh = two_surface_mesh();
