@@ -1,12 +1,7 @@
-// Image output and comparison through OpenImageIO (export/include/abrad/export/image.h).
+// Image output and comparison through OpenImageIO (export/include/abrad/export/image.h); the
+// library's calls are in a module loaded at first use (oiio_module.h).
 
 #include "abrad/export/image.h"
-
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
-#include <OpenImageIO/imageio.h>
-#include <OpenImageIO/strutil.h>
 
 #include <algorithm>
 #include <array>
@@ -19,15 +14,13 @@
 
 #include "abrad/atomic_file.h"
 #include "abrad/export/writers.h"
+#include "oiio_module.h"
 
 namespace abrad::exporter {
 
 namespace {
 
 namespace fs = std::filesystem;
-using OIIO::ImageBuf;
-using OIIO::ImageSpec;
-using OIIO::TypeDesc;
 
 [[noreturn]] void fail(const fs::path& path, const std::string& message) {
     throw ExportError(path.string() + ": " + message);
@@ -146,14 +139,6 @@ std::string tick_label(double v) {
     return std::string(buf, res.ptr);
 }
 
-ImageBuf to_buf(const Image& img) {
-    ImageSpec spec(img.width, img.height, 3, TypeDesc::FLOAT);
-    ImageBuf buf(spec);
-    buf.set_pixels(OIIO::ROI(0, img.width, 0, img.height, 0, 1, 0, 3), TypeDesc::FLOAT,
-                   img.rgb.data());
-    return buf;
-}
-
 }  // namespace
 
 double srgb_encode(double v) {
@@ -175,22 +160,13 @@ void write_image(const fs::path& path, int width, int height, std::span<const fl
                        std::to_string(width) + "x" + std::to_string(height) + " RGB needs " +
                        std::to_string(n));
     const std::string ext = lower_extension(path);
-    auto out = OIIO::ImageOutput::create(path.string());
-    if (!out)
-        fail(path, "cannot write: no image format for '" + ext + "' (" + OIIO::geterror() + ")");
-    // Encode into memory (OpenImageIO's writers do not all report failed writes), then write
-    // the bytes beside the file and rename, as the other writers do
-    if (!out->supports("ioproxy"))
-        fail(path, "cannot write: the '" + ext + "' writer cannot encode into memory");
-    OIIO::Filesystem::IOVecOutput encoded;
-    if (!out->set_ioproxy(&encoded)) fail(path, "cannot write: " + out->geterror());
-
+    std::vector<unsigned char> data;
+    std::string error;
     if (is_linear_format(ext)) {
         // Linear formats keep the values; EXR as half float
-        ImageSpec spec(width, height, 3, ext == ".exr" ? TypeDesc::HALF : TypeDesc::FLOAT);
-        spec.attribute("oiio:ColorSpace", "linear");
-        if (!out->open(path.string(), spec) || !out->write_image(TypeDesc::FLOAT, rgb.data()))
-            fail(path, "cannot write: " + out->geterror());
+        error = oiio::api().encode(path.string(), width, height,
+                                   ext == ".exr" ? oiio::Storage::Half : oiio::Storage::Float,
+                                   rgb.data(), data);
     } else {
         // Display formats: clamp, sRGB-encode, 8 bits
         std::vector<std::uint8_t> bytes(n);
@@ -198,13 +174,10 @@ void write_image(const fs::path& path, int width, int height, std::span<const fl
             const double v = std::isfinite(rgb[i]) ? static_cast<double>(rgb[i]) : 0.0;
             bytes[i] = static_cast<std::uint8_t>(std::lround(srgb_encode(v) * 255.0));
         }
-        ImageSpec spec(width, height, 3, TypeDesc::UINT8);
-        spec.attribute("oiio:ColorSpace", "sRGB");
-        if (!out->open(path.string(), spec) || !out->write_image(TypeDesc::UINT8, bytes.data()))
-            fail(path, "cannot write: " + out->geterror());
+        error = oiio::api().encode(path.string(), width, height, oiio::Storage::Srgb8, bytes.data(),
+                                   data);
     }
-    if (!out->close()) fail(path, "cannot write: " + out->geterror());
-    const std::vector<unsigned char>& data = encoded.buffer();
+    if (!error.empty()) fail(path, "cannot write: " + error);
     if (data.empty()) fail(path, "cannot write: the image encoded to nothing");
     BasicAtomicFile<ExportError> file(path);
     file.write({reinterpret_cast<const char*>(data.data()), data.size()});
@@ -213,32 +186,26 @@ void write_image(const fs::path& path, int width, int height, std::span<const fl
 
 Image read_image(const fs::path& path) {
     if (!fs::exists(path)) fail(path, "cannot read image: no such file");
-    ImageBuf buf(path.string());
-    if (!buf.read(0, 0, true, TypeDesc::FLOAT)) fail(path, "cannot read image: " + buf.geterror());
-    const ImageSpec& spec = buf.spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
-        fail(path, "cannot read image: empty");
-    // 8- and 16-bit display files carry sRGB; float files are linear
-    const std::string space = spec.get_string_attribute("oiio:ColorSpace");
-    const TypeDesc native = buf.nativespec().format;
-    const bool srgb = !(native == TypeDesc::FLOAT || native == TypeDesc::HALF) &&
-                      (space.empty() || OIIO::Strutil::iequals(space, "sRGB"));
-    Image img{spec.width, spec.height, {}};
-    img.rgb.resize(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
-                   3);
-    const auto nc = static_cast<std::size_t>(spec.nchannels);
-    std::vector<float> all(static_cast<std::size_t>(spec.width) *
-                           static_cast<std::size_t>(spec.height) * nc);
-    if (!buf.get_pixels(OIIO::ROI(spec.x, spec.x + spec.width, spec.y, spec.y + spec.height, 0, 1,
-                                  0, spec.nchannels),
-                        TypeDesc::FLOAT, all.data()))
-        fail(path, "cannot read image: " + buf.geterror());
-    for (std::size_t p = 0, i = 0; p < all.size(); p += nc)
+    oiio::Pixels all;
+    if (const std::string error = oiio::api().read(path.string(), all); !error.empty())
+        fail(path, "cannot read image: " + error);
+    Image img{all.width, all.height, {}};
+    img.rgb.resize(static_cast<std::size_t>(all.width) * static_cast<std::size_t>(all.height) * 3);
+    const auto nc = static_cast<std::size_t>(all.channels);
+    for (std::size_t p = 0, i = 0; p < all.data.size(); p += nc)
         for (std::size_t c = 0; c < 3; ++c) {
-            const float v = all[p + std::min(c, nc - 1)];
-            img.rgb[i++] = srgb ? static_cast<float>(srgb_decode(static_cast<double>(v))) : v;
+            const float v = all.data[p + std::min(c, nc - 1)];
+            img.rgb[i++] = all.srgb ? static_cast<float>(srgb_decode(static_cast<double>(v))) : v;
         }
     return img;
+}
+
+void require_image_support() { oiio::api(); }
+
+std::optional<ImageHeader> read_image_header(const fs::path& path) {
+    oiio::Header h;
+    if (!oiio::api().header(path.string(), h)) return std::nullopt;
+    return ImageHeader{h.width, h.height, h.depth, h.channels, h.bytes_per_channel};
 }
 
 glm::vec3 false_colour(double t) {
@@ -331,18 +298,16 @@ void write_false_colour_image(const fs::path& path, int width, int height,
     bool drawn = false;
     if (!font.empty() && fs::exists(font)) {
         const std::string font_name = font.string();
-        ImageBuf buf = to_buf(img);
         const int size = 11 * scale;
-        const float white[3] = {1.0f, 1.0f, 1.0f};
-        bool ok = OIIO::ImageBufAlgo::render_text(buf, bar_x, 14 * scale, std::string(unit), size,
-                                                  font_name, white);
+        std::vector<float> text = img.rgb;  // kept only when every label renders
+        bool ok = oiio::api().render_text(text.data(), total_w, out_h, bar_x, 14 * scale,
+                                          std::string(unit), size, font_name);
         for (int k = 0; ok && k < kTicks; ++k)
-            ok = OIIO::ImageBufAlgo::render_text(
-                buf, text_x, tick_y[static_cast<std::size_t>(k)] + 4 * scale,
-                labels[static_cast<std::size_t>(k)], size, font_name, white);
+            ok = oiio::api().render_text(text.data(), total_w, out_h, text_x,
+                                         tick_y[static_cast<std::size_t>(k)] + 4 * scale,
+                                         labels[static_cast<std::size_t>(k)], size, font_name);
         if (ok) {
-            buf.get_pixels(OIIO::ROI(0, total_w, 0, out_h, 0, 1, 0, 3), TypeDesc::FLOAT,
-                           img.rgb.data());
+            img.rgb = std::move(text);
             drawn = true;
         }
     }
@@ -367,16 +332,18 @@ ImageDifference compare_images(const Image& a, const Image& b) {
         throw ExportError("images differ in size: " + std::to_string(a.width) + "x" +
                           std::to_string(a.height) + " vs " + std::to_string(b.width) + "x" +
                           std::to_string(b.height));
-    const ImageBuf ba = to_buf(a), bb = to_buf(b);
-    const auto r = OIIO::ImageBufAlgo::compare(ba, bb, 1e30f, 1e30f);
-    if (r.error) throw ExportError("image comparison failed: " + OIIO::geterror());
+    oiio::Comparison r;
+    if (const std::string error =
+            oiio::api().compare(a.rgb.data(), b.rgb.data(), a.width, a.height, r);
+        !error.empty())
+        throw ExportError("image comparison failed: " + error);
     ImageDifference d;
     d.rmse = r.rms_error;
     d.psnr_db = r.rms_error > 0.0 ? 20.0 * std::log10(1.0 / r.rms_error)
                                   : std::numeric_limits<double>::infinity();
-    d.max_error = r.maxerror;
-    d.max_x = r.maxx;
-    d.max_y = r.maxy;
+    d.max_error = r.max_error;
+    d.max_x = r.max_x;
+    d.max_y = r.max_y;
     double sa = 0.0, sb = 0.0;
     for (float v : a.rgb) sa += static_cast<double>(v);
     for (float v : b.rgb) sb += static_cast<double>(v);

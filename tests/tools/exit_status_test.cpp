@@ -162,3 +162,38 @@ TEST_F(ExitStatus, BakeSettingsTheBakeDoesNotUseAreBadInput) {
                   .status,
               0);
 }
+
+// OpenImageIO is loaded at the first image call, from a module (libabrad_oiio.so), not at
+// start-up: abrad does not link it, the commands without images work when the module is
+// missing, and an image command then fails (exit 1, a failure of the installation, not of the
+// input) naming where it looked, writing nothing.
+TEST_F(ExitStatus, TheImageModuleIsLoadedOnlyByImageCommands) {
+    FILE* pipe = popen(("ldd " + std::string(ABRAD_EXE) + " 2>&1").c_str(), "r");
+    ASSERT_NE(pipe, nullptr);
+    std::string libraries;
+    char buf[4096];
+    for (std::size_t n; (n = fread(buf, 1, sizeof buf, pipe)) > 0;) libraries.append(buf, n);
+    ASSERT_EQ(pclose(pipe), 0) << libraries;
+    EXPECT_NE(libraries.find("libc.so"), std::string::npos) << libraries;
+    EXPECT_EQ(libraries.find("OpenImageIO"), std::string::npos) << libraries;
+
+    const fs::path db = path("room.visdb");
+    ASSERT_EQ(run("import " + model() + " --db " + db.string()).status, 0);
+    const fs::path missing = path("no/libabrad_oiio.so");
+    setenv("ABRAD_OIIO_MODULE", missing.c_str(), 1);
+    const Result baked = run("bake --bounces 0 --dm off --db " + db.string());
+    const Result info = run("info --db " + db.string());
+    const fs::path png = path("room.png");
+    const Result rendered = run("render --db " + db.string() + " --output " + png.string());
+    unsetenv("ABRAD_OIIO_MODULE");
+    EXPECT_EQ(baked.status, 0) << baked.output;
+    EXPECT_EQ(info.status, 0) << info.output;
+    EXPECT_EQ(rendered.status, 1) << rendered.output;
+    EXPECT_NE(rendered.output.find(missing.string() + ": no such file"), std::string::npos)
+        << rendered.output;
+    EXPECT_FALSE(fs::exists(png));
+    // With the module found again, the same command writes the image
+    const Result again = run("render --db " + db.string() + " --output " + png.string());
+    EXPECT_EQ(again.status, 0) << again.output;
+    EXPECT_GT(fs::file_size(png), 0u);
+}

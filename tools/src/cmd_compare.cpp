@@ -1,8 +1,6 @@
 // abrad compare: two images compared in linear light (RMSE, PSNR, max error), a difference
 // image and a side-by-side strip (export/compose.h), exit 1 past a threshold.
 
-#include <OpenImageIO/imageio.h>
-
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
@@ -63,16 +61,15 @@ void check_claimed_size(const std::string& path) {
     if (!std::filesystem::is_regular_file(path, ec)) return;  // read_image says why
     const auto file_bytes = std::filesystem::file_size(path, ec);
     if (ec) return;
-    const auto in = OIIO::ImageInput::open(path);
-    if (!in) return;  // read_image reports the reader's message
-    const OIIO::ImageSpec& spec = in->spec();
-    const double pixels = static_cast<double>(spec.width) * static_cast<double>(spec.height) *
-                          static_cast<double>(std::max(1, spec.depth));
+    const auto spec = exporter::read_image_header(path);
+    if (!spec) return;  // read_image reports the reader's message
+    const double pixels = static_cast<double>(spec->width) * static_cast<double>(spec->height) *
+                          static_cast<double>(std::max(1, spec->depth));
     const double decoded =
-        pixels * std::max(1, spec.nchannels) * static_cast<double>(spec.format.size());
+        pixels * std::max(1, spec->channels) * static_cast<double>(spec->bytes_per_channel);
     if (decoded > kAlwaysReadBytes && decoded > kMaxExpansion * static_cast<double>(file_bytes)) {
-        bad_input(path + ": the image header claims " + std::to_string(spec.width) + "x" +
-                  std::to_string(spec.height) + " pixels of " + std::to_string(spec.nchannels) +
+        bad_input(path + ": the image header claims " + std::to_string(spec->width) + "x" +
+                  std::to_string(spec->height) + " pixels of " + std::to_string(spec->channels) +
                   " channels (" + text(decoded) + " bytes), more than a file of " +
                   std::to_string(file_bytes) + " bytes can hold");
     }
@@ -102,6 +99,7 @@ void add_compare(CLI::App& app) {
 int run_compare(const Invocation&) {
     const CompareArgs& c = state();
     exporter::Image a, b;
+    exporter::require_image_support();  // exit 1 when missing, not "bad input"
     check_claimed_size(c.a);
     check_claimed_size(c.b);
     try {

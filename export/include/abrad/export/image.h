@@ -1,5 +1,6 @@
 #pragma once
-// Image output and comparison through OpenImageIO: linear RGB buffers written as PNG (sRGB)
+// Image output and comparison through OpenImageIO (loaded at the first call, not at start-up:
+// export/src/oiio_module.h): linear RGB buffers written as PNG (sRGB)
 // or EXR (linear), a perceptual false-colour scale with a legend, and the image comparison
 // behind `abrad compare`.
 //
@@ -7,6 +8,7 @@
 
 #include <filesystem>
 #include <glm/vec3.hpp>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -46,6 +48,23 @@ void write_image(const std::filesystem::path& path, int width, int height,
 /// are decoded from sRGB, EXR/HDR are taken as they are; grey is copied to RGB and channels
 /// past the third (alpha) are dropped. Throws ExportError "PATH: ..." when unreadable.
 Image read_image(const std::filesystem::path& path);
+
+/// Loads the image library now (it is otherwise loaded at the first image call), so that a
+/// missing module is reported as such and not as an unreadable input. Throws ExportError.
+void require_image_support();
+
+/// What an image file's header claims (no pixel read).
+struct ImageHeader {
+    int width = 0;
+    int height = 0;
+    int depth = 1;
+    int channels = 0;
+    std::size_t bytes_per_channel = 0;
+};
+
+/// Opens an image file and reads only its header, so that a claimed size can be checked
+/// before any pixel is allocated; nullopt when no reader opens it (read_image then says why).
+std::optional<ImageHeader> read_image_header(const std::filesystem::path& path);
 
 /// The legend's default font (Debian fonts-dejavu-core).
 inline const std::filesystem::path kLegendFont = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
