@@ -49,6 +49,12 @@ struct Mask {
             if (w[i]) return false;
         return true;
     }
+    // Word by word (std::equal on the words called memcmp for each fragment)
+    bool operator==(const Mask& o) const {
+        for (int i = 0; i < kWords; ++i)
+            if (w[i] != o.w[i]) return false;
+        return true;
+    }
     int count() const {
         int c = 0;
         for (int i = 0; i < kWords; ++i) c += std::popcount(w[i]);
@@ -339,18 +345,19 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
             if (mask.empty()) {
                 // Clip to the pixel: touching with positive area but no sample = undersampled
                 // (a polygon within the pixel is its own clip: the clippers keep it whole)
-                Poly2 px;
-                if (in_one_pixel) {
-                    px = p;
-                } else {
+                Poly2 clipped;
+                const Poly2* piece = &p;
+                if (!in_one_pixel) {
                     if (!strip_ready) {
                         strip = clip_polygon(p, [&](const glm::dvec2& v) { return v.y - y0; });
-                        strip = clip_polygon(strip, [&](const glm::dvec2& v) { return y1 - v.y; });
+                        clip_in_place(strip, [&](const glm::dvec2& v) { return y1 - v.y; });
                         strip_ready = true;
                     }
-                    px = clip_polygon(strip, [&](const glm::dvec2& v) { return v.x - i; });
-                    px = clip_polygon(px, [&](const glm::dvec2& v) { return (i + 1.0) - v.x; });
+                    clipped = clip_polygon(strip, [&](const glm::dvec2& v) { return v.x - i; });
+                    clip_in_place(clipped, [&](const glm::dvec2& v) { return (i + 1.0) - v.x; });
+                    piece = &clipped;
                 }
+                const Poly2& px = *piece;
                 if (px.size() < 3 || std::abs(signed_area2(px)) <= 1e-14) continue;
                 if (!fine_ready) {
                     fine.compute(p, y0);
@@ -433,11 +440,11 @@ void project_patch(const Hemicube& hc, const glm::dvec3 local[3], Emit&& emit) {
             continue;
         Polygon3 poly;
         for (const glm::dvec3& x : q) poly.push_back(x);
-        poly = clip_polygon(poly, near);
-        poly = clip_polygon(poly, right);
-        poly = clip_polygon(poly, left);
-        poly = clip_polygon(poly, top);
-        poly = clip_polygon(poly, bottom);
+        clip_in_place(poly, near);
+        clip_in_place(poly, right);
+        clip_in_place(poly, left);
+        clip_in_place(poly, top);
+        clip_in_place(poly, bottom);
         if (poly.size() < 3) continue;
         // Project to pixel coordinates
         Poly2 p2;
@@ -583,7 +590,7 @@ class ClosedPixels {
             float& cd = m_closed_depth[frag.pixel];
             if (frag.fine != kNoPatch) continue;  // no coarse samples
             // A fragment covering the whole pixel closes it at its own depth
-            if (std::equal(frag.mask.w, frag.mask.w + Mask<S>::kWords, full.w)) {
+            if (frag.mask == full) {
                 cd = std::min(cd, frag.depth);
                 continue;
             }
@@ -592,7 +599,7 @@ class ClosedPixels {
             for (int w = 0; w < Mask<S>::kWords; ++w) m.w[w] |= frag.mask.w[w];
             m_deepest[frag.pixel] = std::max(m_deepest[frag.pixel], frag.depth);
             // Closed: every sample is behind an opaque fragment no deeper than _deepest_
-            if (std::equal(m.w, m.w + Mask<S>::kWords, full.w)) cd = m_deepest[frag.pixel];
+            if (m == full) cd = m_deepest[frag.pixel];
         }
     }
 

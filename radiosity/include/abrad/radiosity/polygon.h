@@ -91,6 +91,16 @@ Poly clip_polygon(const Poly& in, Dist&& dist) {
     return out;
 }
 
+/// clip_polygon(p, dist) into `p` itself, which is left as it is (not copied) when wholly
+/// inside: the hemicube clips each triangle against five planes, most of which miss it.
+template <typename Poly, typename Dist>
+void clip_in_place(Poly& p, Dist&& dist) {
+    const std::size_t n = p.size();
+    bool all_in = true;
+    for (std::size_t i = 0; i < n && all_in; ++i) all_in = dist(p[i]) >= 0.0;
+    if (!all_in) p = clip_polygon(p, dist);
+}
+
 /// Twice the signed area of a 2D polygon (positive when counter-clockwise).
 template <typename Poly>
 double signed_area2(const Poly& p) {
