@@ -220,5 +220,7 @@ void add_bench(CLI::App& app);
 int run_bench(const Invocation& call);
 void add_simplify(CLI::App& app);
 int run_simplify(const Invocation& call);
+void add_report(CLI::App& app);
+int run_report(const Invocation& call);
 
 }  // namespace abrad::tools::cli
