@@ -64,13 +64,18 @@ std::string exact(double v) {
     return out;
 }
 
-// `v` with four significant digits in fixed notation ("523.4", "12.35", "0.5123", "1235")
+// `v` rounded to four significant digits in fixed notation, without trailing zeros ("523.4",
+// "12.35", "0.5123", "1235", "0.75")
 std::string shown(double v) {
     if (!std::isfinite(v)) return exact(v);
     if (v == 0.0) return "0";
     const int magnitude = static_cast<int>(std::floor(std::log10(std::abs(v))));
     std::string out;
     detail::append_fixed(out, v, std::clamp(3 - magnitude, 0, 8));
+    if (out.find('.') != std::string::npos) {
+        out.erase(out.find_last_not_of('0') + 1);
+        if (out.back() == '.') out.pop_back();
+    }
     return out;
 }
 
@@ -164,8 +169,9 @@ std::string svg_number(double v) {
     return out;
 }
 
-// The contour lines of `level` as one SVG path, with a label at the middle of its segments
-std::string contour_svg(const ReportGrid& g, const PlanFrame& f, double level) {
+// The contour lines of `level` as one SVG path, labelled at the segment nearest the point
+// `at` of the lattice (the levels' labels spread along a diagonal, not stacked on one row)
+std::string contour_svg(const ReportGrid& g, const PlanFrame& f, double level, LatticePoint at) {
     const std::vector<IsoSegment> segments = isoline(g.value, g.nx, g.ny, level);
     if (segments.empty()) return {};
     std::string d;
@@ -173,7 +179,12 @@ std::string contour_svg(const ReportGrid& g, const PlanFrame& f, double level) {
         d += "M" + svg_number(f.x_of(s.a.i)) + " " + svg_number(f.y_of(s.a.j)) + "L" +
              svg_number(f.x_of(s.b.i)) + " " + svg_number(f.y_of(s.b.j));
     }
-    const IsoSegment& mid = segments[segments.size() / 2];
+    const auto distance = [&](const IsoSegment& s) {
+        return std::hypot(0.5 * (s.a.i + s.b.i) - at.i, 0.5 * (s.a.j + s.b.j) - at.j);
+    };
+    const IsoSegment& mid = *std::min_element(
+        segments.begin(), segments.end(),
+        [&](const IsoSegment& x, const IsoSegment& y) { return distance(x) < distance(y); });
     const double lx = f.x_of(0.5 * (mid.a.i + mid.b.i));
     const double ly = f.y_of(0.5 * (mid.a.j + mid.b.j));
     return "<g class=\"contour\" data-level=\"" + exact(level) + "\"><path d=\"" + d +
@@ -237,25 +248,31 @@ std::string grid_plan(const fs::path& dir, const ReportGrid& g, int index, const
     const PlanFrame f{scale, kMargin, kMargin, &g};
     const double w = w_m * scale;
     const double h = h_m * scale;
+    const double svg_h = std::max(h, 80.0) + 2 * kMargin;  // room for the legend
     const std::vector<double> levels = contour_levels(g.e_min, g.e_max, 6);
     std::string out = "<svg class=\"plan\" data-grid-plan=\"" + std::to_string(index) +
                       "\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
                       svg_number(w + 2 * kMargin + kLegendWidth) + "\" height=\"" +
-                      svg_number(h + 2 * kMargin) + "\" role=\"img\" aria-label=\"" +
-                      escape(g.name) + " in false colour with isolux contours\">\n";
+                      svg_number(svg_h) + "\" role=\"img\" aria-label=\"" + escape(g.name) +
+                      " in false colour with isolux contours\">\n";
     out += "<image href=\"" + png + "\" x=\"" + svg_number(kMargin) + "\" y=\"" +
            svg_number(kMargin) + "\" width=\"" + svg_number(w) + "\" height=\"" + svg_number(h) +
            "\" preserveAspectRatio=\"none\" style=\"image-rendering:pixelated\"/>\n";
     out += "<rect x=\"" + svg_number(kMargin) + "\" y=\"" + svg_number(kMargin) + "\" width=\"" +
            svg_number(w) + "\" height=\"" + svg_number(h) + "\" fill=\"none\" stroke=\"#444\"/>\n";
-    for (const double level : levels) out += contour_svg(g, f, level);
-    // Axis labels: the corners in metres
+    for (std::size_t k = 0; k < levels.size(); ++k) {
+        // Labels on the diagonal from the lattice's first point to its last
+        const double t =
+            (static_cast<double>(k) + 1.0) / (static_cast<double>(levels.size()) + 1.0);
+        out += contour_svg(g, f, levels[k], {t * (g.nx - 1), t * (g.ny - 1)});
+    }
+    // The corners in metres: (min x, min y) below on the left, (max x, max y) above on the right
     out += "<text class=\"axis\" x=\"" + svg_number(kMargin) + "\" y=\"" +
-           svg_number(kMargin + h + 18.0) + "\">x " + shown(g.min_x) + " m</text>";
+           svg_number(kMargin + h + 18.0) + "\">(" + shown(g.min_x) + ", " + shown(g.min_y) +
+           ") m</text>";
     out += "<text class=\"axis\" text-anchor=\"end\" x=\"" + svg_number(kMargin + w) + "\" y=\"" +
-           svg_number(kMargin + h + 18.0) + "\">" + shown(g.max_x) + " m</text>";
-    out += "<text class=\"axis\" x=\"" + svg_number(kMargin) + "\" y=\"" +
-           svg_number(kMargin - 8.0) + "\">y " + shown(g.max_y) + " m (north up)</text>\n";
+           svg_number(kMargin - 8.0) + "\">(" + shown(g.max_x) + ", " + shown(g.max_y) +
+           ") m</text>\n";
     out += legend_svg(kMargin + w + 20.0, kMargin + 14.0, std::max(h - 14.0, 40.0), e_max, levels,
                       unit, index);
     return out + "</svg>\n";
@@ -391,7 +408,7 @@ std::string bake_section(const visdb::Bake& bake) {
     out += "<tr><th>name</th>" + text_cell(bake.name) + "</tr><tr><th>created</th>" +
            text_cell(bake.created_at) + "</tr><tr><th>unit</th>" + text_cell(bake.unit) +
            "</tr><tr><th>mesh</th><td>" + std::to_string(st.vertices) + " vertices, " +
-           std::to_string(st.triangles) + " triangles</td></tr><tr><th>time</th>" +
+           std::to_string(st.triangles) + " triangles</td></tr><tr><th>time (s)</th>" +
            number_cell(st.seconds_total, "seconds") + "</tr></table>\n";
     out += "<h3>Energy balance</h3><table id=\"energy-table\"><tr><th>emitted (" + power +
            ")</th>" + number_cell(st.emitted_power_w, "emitted") +

@@ -36,7 +36,7 @@ name = "work plane"
 min = [0.0, 0.0]
 max = [6.0, 5.0]
 height = 0.75
-spacing = 0.25
+spacing = 0.5
 margin = 0.5
 TOML
 "$abrad" import "$samples/furnished_room/furnished_room.obj" --scene "$out/scene.toml" \
