@@ -5,6 +5,7 @@
 // files (exit 2, left as it was), OUT where nothing can be written (exit 1, nothing left).
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -144,12 +145,19 @@ TEST(ReportCli, WithoutTheViewerThePageSaysHowToGetIt) {
     EXPECT_FALSE(fs::exists(out / "model.js"));
     EXPECT_TRUE(fs::is_regular_file(out / "model.glb"));
 
-    // A second report replaces the first whole: a file only the first had is gone
+    // A second report replaces the first whole: a file only the first had is gone, and so is
+    // the staging folder of a killed report (its process gone), not that of a live one
     std::ofstream(out / "stale.txt") << "x";
+    const fs::path killed = dir / ".report.abrad-report-2147483";
+    const fs::path live = dir / (".report.abrad-report-" + std::to_string(::getpid()));
+    fs::create_directories(killed / "viewer");
+    fs::create_directories(live);
     const auto again = run_abrad("report --db " + lit.db + " --out " + out.string());
     ASSERT_EQ(again.status, 0) << again.output;
     EXPECT_FALSE(fs::exists(out / "stale.txt"));
     EXPECT_TRUE(fs::is_regular_file(out / "index.html"));
+    EXPECT_FALSE(fs::exists(killed));
+    EXPECT_TRUE(fs::is_directory(live));
 }
 
 TEST(ReportCli, RefusesMissingBakesAndForeignOutputs) {

@@ -5,8 +5,10 @@
 // render), each implemented in its subcommand's file.
 
 #include <chrono>
+#include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "abrad/export/simplify.h"
@@ -138,6 +140,20 @@ visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v);
 /// exporter::camera_tone_map for that camera and image size.
 exporter::ToneMap exposure_for(const visdb::Bake& bake, const visdb::Scene& scene,
                                const ViewArgs& v);
+
+/// A folder removed, with what it holds, when this goes out of scope: where `run` and `report`
+/// make their results before moving them into place.
+struct StagingFolder {
+    explicit StagingFolder(std::filesystem::path p) : path(std::move(p)) {}
+    StagingFolder(const StagingFolder&) = delete;
+    StagingFolder& operator=(const StagingFolder&) = delete;
+    ~StagingFolder();
+    std::filesystem::path path;
+};
+
+/// Removes the staging folders `<prefix><pid>` in `dir` that killed commands left: those whose
+/// process is gone (a live one, perhaps another command writing there, is left alone).
+void remove_stale_staging(const std::filesystem::path& dir, const std::string& prefix);
 
 /// Seconds since `start` on the steady clock.
 double seconds_since(std::chrono::steady_clock::time_point start);

@@ -57,18 +57,6 @@ constexpr const char* kViewerHint =
     "(Node.js and npm, from scripts/install-deps.sh, and the npm registry the first time) or "
     "set ABRAD_VIEWER to an abrad-viewer.js, and run abrad report again.";
 
-// Removes a folder and what it holds when it goes out of scope.
-struct StagingFolder {
-    explicit StagingFolder(fs::path p) : path(std::move(p)) {}
-    StagingFolder(const StagingFolder&) = delete;
-    StagingFolder& operator=(const StagingFolder&) = delete;
-    ~StagingFolder() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
-    fs::path path;
-};
-
 // True when `dir` holds a page abrad report wrote (its generator line in index.html)
 bool is_report_folder(const fs::path& dir) {
     std::ifstream in(dir / "index.html");
@@ -197,8 +185,9 @@ int run_report(const Invocation&) {
     const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
     fs::create_directories(parent, ec);
     if (ec) failure(out.string() + ": cannot write: " + ec.message());
-    const fs::path stage =
-        parent / ("." + out.filename().string() + ".abrad-report-" + std::to_string(::getpid()));
+    const std::string prefix = "." + out.filename().string() + ".abrad-report-";
+    remove_stale_staging(parent, prefix);  // left by killed reports
+    const fs::path stage = parent / (prefix + std::to_string(::getpid()));
     fs::remove_all(stage, ec);
     if (!fs::create_directory(stage, ec) || ec)
         failure(out.string() + ": cannot write: " +
