@@ -7,7 +7,8 @@ packages=(cmake g++ make ccache pkg-config libsqlite3-dev libglm-dev libgtest-de
           libopenimageio-dev openimageio-tools libtinygltf-dev nlohmann-json3-dev fonts-dejavu-core
           povray povray-includes libopenmesh-dev
           python3-meshio  # the export tests read PLY with meshio (Debian's /usr/bin/python3)
-          clang-format clang-tidy)  # the style tests (Debian 12: version 14)
+          clang-format clang-tidy  # the style tests (Debian 12: version 14)
+          chromium)  # the report's browser test (headless, WebGL through SwiftShader)
 # Node.js and npm for the export tests' readers (tests/export/package.json: the Khronos glTF
 # validator, three.js), from Debian unless a node and npm are already on the PATH (NodeSource)
 command -v node >/dev/null && command -v npm >/dev/null || packages+=(nodejs npm)

@@ -43,6 +43,10 @@ constexpr Command kCommands[] = {
      add_simplify, run_simplify},
     {"field-error", "Gouraud-interpolated irradiance of a bake against the exact direct irradiance",
      add_field_error, run_field_error},
+    {"report",
+     "Write an HTML report of a bake (grids with isolux plans, luminaires, energy balance, a 3D "
+     "view) into a folder that opens offline",
+     add_report, run_report},
     {"run", "Import, bake and export in one go", add_run, run_run},
     {"generate",
      "Generate a building floor (rooms, doors, furniture, ceiling lights) into a visual "

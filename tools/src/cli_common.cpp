@@ -2,7 +2,10 @@
 
 #include "cli_common.h"
 
+#include <signal.h>
+
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -17,6 +20,25 @@ namespace abrad::tools::cli {
 void bad_input(const std::string& message) { throw CommandError{kExitBadInput, message}; }
 
 void failure(const std::string& message) { throw CommandError{kExitFailure, message}; }
+
+StagingFolder::~StagingFolder() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+}
+
+void remove_stale_staging(const std::filesystem::path& dir, const std::string& prefix) {
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+        const std::string name = entry.path().filename().string();
+        if (name.rfind(prefix, 0) != 0 || !entry.is_directory(ec)) continue;
+        const std::string digits = name.substr(prefix.size());
+        pid_t pid = 0;
+        const auto [end, error] =
+            std::from_chars(digits.data(), digits.data() + digits.size(), pid);
+        if (error != std::errc() || end != digits.data() + digits.size() || pid <= 0) continue;
+        if (::kill(pid, 0) != 0 && errno == ESRCH) std::filesystem::remove_all(entry.path(), ec);
+    }
+}
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -5,8 +5,10 @@
 // render), each implemented in its subcommand's file.
 
 #include <chrono>
+#include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "abrad/export/simplify.h"
@@ -139,6 +141,20 @@ visdb::Camera camera_for(const visdb::Scene& scene, const ViewArgs& v);
 exporter::ToneMap exposure_for(const visdb::Bake& bake, const visdb::Scene& scene,
                                const ViewArgs& v);
 
+/// A folder removed, with what it holds, when this goes out of scope: where `run` and `report`
+/// make their results before moving them into place.
+struct StagingFolder {
+    explicit StagingFolder(std::filesystem::path p) : path(std::move(p)) {}
+    StagingFolder(const StagingFolder&) = delete;
+    StagingFolder& operator=(const StagingFolder&) = delete;
+    ~StagingFolder();
+    std::filesystem::path path;
+};
+
+/// Removes the staging folders `<prefix><pid>` in `dir` that killed commands left: those whose
+/// process is gone (a live one, perhaps another command writing there, is left alone).
+void remove_stale_staging(const std::filesystem::path& dir, const std::string& prefix);
+
 /// Seconds since `start` on the steady clock.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
@@ -220,5 +236,7 @@ void add_bench(CLI::App& app);
 int run_bench(const Invocation& call);
 void add_simplify(CLI::App& app);
 int run_simplify(const Invocation& call);
+void add_report(CLI::App& app);
+int run_report(const Invocation& call);
 
 }  // namespace abrad::tools::cli

@@ -2,13 +2,10 @@
 // is made in a staging folder inside the output folder and moved into it only when all of it
 // was written, the database last, so a failure leaves the previous results as they were.
 
-#include <signal.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <cerrno>
-#include <charconv>
 #include <filesystem>
 #include <iostream>
 #include <system_error>
@@ -33,35 +30,6 @@ RunArgs& state() {
     return s;
 }
 
-// Removes a folder and what it holds when it goes out of scope.
-struct StagingFolder {
-    explicit StagingFolder(fs::path p) : path(std::move(p)) {}
-    StagingFolder(const StagingFolder&) = delete;
-    StagingFolder& operator=(const StagingFolder&) = delete;
-    ~StagingFolder() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
-    fs::path path;
-};
-
-// Removes the staging folders `.abrad-run-PID` that killed runs left in `out`: those whose
-// process is gone (a live one, perhaps another run in the same folder, is left alone).
-void remove_stale_staging(const fs::path& out) {
-    const std::string prefix = ".abrad-run-";
-    std::error_code ec;
-    for (const fs::directory_entry& entry : fs::directory_iterator(out, ec)) {
-        const std::string name = entry.path().filename().string();
-        if (name.rfind(prefix, 0) != 0 || !entry.is_directory(ec)) continue;
-        const std::string digits = name.substr(prefix.size());
-        pid_t pid = 0;
-        const auto [end, error] =
-            std::from_chars(digits.data(), digits.data() + digits.size(), pid);
-        if (error != std::errc() || end != digits.data() + digits.size() || pid <= 0) continue;
-        if (::kill(pid, 0) != 0 && errno == ESRCH) fs::remove_all(entry.path(), ec);
-    }
-}
-
 }  // namespace
 
 void add_run(CLI::App& app) {
@@ -84,7 +52,7 @@ int run_run(const Invocation& call) {
 
     // Make every result in a staging folder inside OUT (same file system: moves are renames),
     // removed on the way out whatever happens; a failure leaves OUT as it was
-    remove_stale_staging(out);
+    remove_stale_staging(out, ".abrad-run-");
     const fs::path stage = out / (".abrad-run-" + std::to_string(::getpid()));
     fs::remove_all(stage);
     fs::create_directory(stage);
