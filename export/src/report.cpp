@@ -491,16 +491,20 @@ std::string view_section(const fs::path& dir, const visdb::Scene& scene, const v
     out +=
         "<script>\n(function () {\n"
         "  const status = document.getElementById('viewer-status');\n"
-        "  window.abradViewer.show(document.getElementById('abrad-3d'), {model: "
+        "  // A browser without WebGL throws in show(): that too ends in the error branch\n"
+        "  Promise.resolve().then(function () {\n"
+        "    return window.abradViewer.show(document.getElementById('abrad-3d'), {model: "
         "window.abradModel, camera: " +
         view_json(in.view) +
-        "}).then(function (view) {\n"
+        "});\n  }).then(function (view) {\n"
         "    status.textContent = view.triangles + ' triangles.';\n"
         "    document.getElementById('view-camera').onclick = view.camera;\n"
         "    document.getElementById('view-overview').onclick = view.overview;\n"
         "    document.body.dataset.viewer = 'ready';\n"
         "  }, function (error) {\n"
         "    document.body.dataset.viewer = 'error';\n"
+        "    status.textContent = 'The 3D view could not be drawn (' + error + '); the browser "
+        "may lack WebGL.';\n"
         "    console.error('abrad report: the 3D view failed: ' + error);\n  });\n})();\n"
         "</script>\n";
     return out + "</section>\n";
