@@ -176,8 +176,15 @@ std::string contour_svg(const ReportGrid& g, const PlanFrame& f, double level, L
     if (segments.empty()) return {};
     std::string d;
     for (const IsoSegment& s : segments) {
-        d += "M" + svg_number(f.x_of(s.a.i)) + " " + svg_number(f.y_of(s.a.j)) + "L" +
-             svg_number(f.x_of(s.b.i)) + " " + svg_number(f.y_of(s.b.j));
+        // Appended piece by piece ("M" + std::string made GCC 12 warn -Wrestrict at -O3)
+        d += 'M';
+        d += svg_number(f.x_of(s.a.i));
+        d += ' ';
+        d += svg_number(f.y_of(s.a.j));
+        d += 'L';
+        d += svg_number(f.x_of(s.b.i));
+        d += ' ';
+        d += svg_number(f.y_of(s.b.j));
     }
     const auto distance = [&](const IsoSegment& s) {
         return std::hypot(0.5 * (s.a.i + s.b.i) - at.i, 0.5 * (s.a.j + s.b.j) - at.j);
