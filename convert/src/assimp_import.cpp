@@ -746,7 +746,9 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
                type == "LINE" || type == "3DLINE";
     };
 
-    // Entities INSERT `e` would copy, saturating at kMaxDxfBlockEntities + 1; memoized per
+    // Entities INSERT `e` would copy and block copies it would place (each placement is work
+    // too: nested INSERTs of blocks with nothing to copy hung the expansion, fuzz finding
+    // dxf/finding-9850d687b7c7), saturating at kMaxDxfBlockEntities + 1; memoized per
     // (block, nesting depth), so nested INSERT bombs are counted in time linear in the file
     std::map<std::pair<std::string, std::size_t>, std::uint64_t> counted;
     const auto count = [&](const auto& self, const Entity& e) -> std::uint64_t {
@@ -769,8 +771,8 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
             expanding.erase(ins.name);
             memo = counted.emplace(key, n).first;
         }
-        // Both factors are at most kMaxDxfBlockEntities + 1 and kMaxDxfInsertCopies: no overflow
-        return std::min<std::uint64_t>(memo->second * ins.copies, kMaxDxfBlockEntities + 1);
+        // The factors are at most kMaxDxfBlockEntities + 2 and kMaxDxfInsertCopies: no overflow
+        return std::min<std::uint64_t>((memo->second + 1) * ins.copies, kMaxDxfBlockEntities + 1);
     };
     const auto where = [&](const Insert& ins) {
         return "INSERT of block " + quote_name(ins.name) +
@@ -780,7 +782,8 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
         return ImportError(file, ins.line,
                            where(ins) + " expands the blocks to more than " +
                                std::to_string(kMaxDxfBlockEntities) +
-                               " entities (nested INSERTs and MINSERT arrays multiply); refused");
+                               " entities and block copies (nested INSERTs and MINSERT arrays "
+                               "multiply); refused");
     };
 
     // Expands INSERT `e` under the transform `outer` (identity at the top level); `copied`
@@ -814,6 +817,7 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
         const Affine ocs = dxf_ocs(ins.extrusion);
         for (long r = 0; r < ins.rows; ++r) {
             for (long c = 0; c < ins.columns; ++c) {
+                if (++copied > kMaxDxfBlockEntities) throw over_budget(top);
                 // Array spacing is along the rotated block axes, not scaled
                 Affine place(1.0);
                 place[3] = glm::dvec4(
