@@ -4,7 +4,7 @@
 set -euo pipefail
 packages=(cmake g++ make ccache pkg-config libsqlite3-dev libglm-dev libgtest-dev libgmock-dev
           libcli11-dev libtbb-dev libcgal-dev libassimp-dev libtomlplusplus-dev libbenchmark-dev gnuplot-nox
-          libopenimageio-dev openimageio-tools libtinygltf-dev nlohmann-json3-dev fonts-dejavu-core
+          libopenimageio-dev openimageio-tools libtinygltf-dev nlohmann-json3-dev libexpat1-dev fonts-dejavu-core
           povray povray-includes libopenmesh-dev
           python3-meshio  # the export tests read PLY with meshio (Debian's /usr/bin/python3)
           clang-format clang-tidy  # the style tests (Debian 12: version 14)

@@ -83,6 +83,7 @@
 #include "abrad/convert/obj_import.h"
 #include "abrad/visdb/material_check.h"
 #include "child_process.h"
+#include "format_checks.h"
 #include "raw_model.h"
 
 namespace abrad::convert::detail {
@@ -745,7 +746,9 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
                type == "LINE" || type == "3DLINE";
     };
 
-    // Entities INSERT `e` would copy, saturating at kMaxDxfBlockEntities + 1; memoized per
+    // Entities INSERT `e` would copy and block copies it would place (each placement is work
+    // too: nested INSERTs of blocks with nothing to copy hung the expansion, fuzz finding
+    // dxf/finding-9850d687b7c7), saturating at kMaxDxfBlockEntities + 1; memoized per
     // (block, nesting depth), so nested INSERT bombs are counted in time linear in the file
     std::map<std::pair<std::string, std::size_t>, std::uint64_t> counted;
     const auto count = [&](const auto& self, const Entity& e) -> std::uint64_t {
@@ -768,8 +771,8 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
             expanding.erase(ins.name);
             memo = counted.emplace(key, n).first;
         }
-        // Both factors are at most kMaxDxfBlockEntities + 1 and kMaxDxfInsertCopies: no overflow
-        return std::min<std::uint64_t>(memo->second * ins.copies, kMaxDxfBlockEntities + 1);
+        // The factors are at most kMaxDxfBlockEntities + 2 and kMaxDxfInsertCopies: no overflow
+        return std::min<std::uint64_t>((memo->second + 1) * ins.copies, kMaxDxfBlockEntities + 1);
     };
     const auto where = [&](const Insert& ins) {
         return "INSERT of block " + quote_name(ins.name) +
@@ -779,7 +782,8 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
         return ImportError(file, ins.line,
                            where(ins) + " expands the blocks to more than " +
                                std::to_string(kMaxDxfBlockEntities) +
-                               " entities (nested INSERTs and MINSERT arrays multiply); refused");
+                               " entities and block copies (nested INSERTs and MINSERT arrays "
+                               "multiply); refused");
     };
 
     // Expands INSERT `e` under the transform `outer` (identity at the top level); `copied`
@@ -813,6 +817,7 @@ std::optional<std::string> expand_dxf_inserts(const std::vector<DxfPair>& pairs,
         const Affine ocs = dxf_ocs(ins.extrusion);
         for (long r = 0; r < ins.rows; ++r) {
             for (long c = 0; c < ins.columns; ++c) {
+                if (++copied > kMaxDxfBlockEntities) throw over_budget(top);
                 // Array spacing is along the rotated block axes, not scaled
                 Affine place(1.0);
                 place[3] = glm::dvec4(
@@ -1367,8 +1372,12 @@ BeforeAssimp check_and_expand(std::string_view bytes, const std::string& ext,
     // glTF: Assimp names no place in a broken JSON file
     if (ext == "gltf") check_gltf_json(bytes, file);
     // Collada: Assimp reads fractional indices into a huge allocation
-    if (ext == "dae" || bytes.substr(0, 1024).find("<COLLADA") != std::string_view::npos)
+    if (ext == "dae" || bytes.substr(0, 1024).find("<COLLADA") != std::string_view::npos) {
+        check_collada_xml(bytes, file);  // Assimp says only "malformed XML"
         check_collada(bytes, file);
+    }
+    // 3DS: Assimp says only "Chunk is too large"
+    if (ext == "3ds") check_3ds_chunks(bytes, file);
     // IFC (STEP): Assimp reads a truncated file without a word, minus what was cut off
     if (bytes.starts_with("ISO-10303-21") &&
         !trim(std::string_view(bytes).substr(bytes.size() -
@@ -1405,6 +1414,36 @@ std::function<std::string(std::size_t)> assimp_places(
         const std::size_t face = place & 0xffffffffULL;
         return located(file, 0, (*labels)[instance - 1] + " face " + std::to_string(face));
     };
+}
+
+/// The format's name for messages ("glTF"), from the model format table, else the extension.
+std::string format_name(const std::filesystem::path& path) {
+    std::string ext = lower(path.extension().string());
+    if (!ext.empty() && ext.front() == '.') ext.erase(0, 1);
+    for (const ModelFormat& f : model_formats()) {
+        if (std::find(f.extensions.begin(), f.extensions.end(), ext) != f.extensions.end())
+            return f.name;
+    }
+    return ext.empty() ? std::string("model") : ext;
+}
+
+/// The line of the DXF value Assimp could not parse, when its message quotes one ("Cannot
+/// parse string "abc" as a real number"): the first pair with a numeric group code (10-59,
+/// 60-99, 110-149, 160-179, 210-239, 270-289, 370-389, 1010-1071) and that value; 0 if none.
+std::size_t dxf_value_line(const std::vector<DxfPair>& pairs, const std::string& message) {
+    const std::size_t open = message.find('"');
+    const std::size_t close = open == std::string::npos ? open : message.find('"', open + 1);
+    if (close == std::string::npos) return 0;
+    const std::string_view value =
+        trim(std::string_view(message).substr(open + 1, close - open - 1));
+    const auto numeric = [](int c) {
+        return (c >= 10 && c <= 99) || (c >= 110 && c <= 149) || (c >= 160 && c <= 179) ||
+               (c >= 210 && c <= 239) || (c >= 270 && c <= 289) || (c >= 370 && c <= 389) ||
+               (c >= 1010 && c <= 1071);
+    };
+    for (const DxfPair& p : pairs)
+        if (numeric(p.code) && p.value == value) return p.line + 1;
+    return 0;
 }
 
 /// read_assimp in this process; `labels` gets the mesh instances' labels (assimp_places).
@@ -1444,14 +1483,17 @@ RawModel read_assimp_here(const std::filesystem::path& path, const ImportOptions
             }
         } catch (const std::exception& e) {
             if (io->refusal()) throw *io->refusal();
-            throw ImportError(file, 0, "cannot read: " + clean_message(e.what(), file));
+            const std::string message = clean_message(e.what(), file);
+            throw ImportError(file, dxf ? dxf_value_line(*dxf, message) : 0,
+                              "cannot read as " + format_name(path) + ": " + message);
         }
     }
     if (io->refusal()) throw *io->refusal();
     if (scene == nullptr || scene->mRootNode == nullptr) {
         std::string message = clean_message(importer.GetErrorString(), file);
         if (message.empty()) message = "Assimp could not read it";
-        throw ImportError(file, 0, "cannot read as a model: " + message);
+        throw ImportError(file, dxf ? dxf_value_line(*dxf, message) : 0,
+                          "cannot read as " + format_name(path) + ": " + message);
     }
     for (const std::string& entry : log) {
         if (entry.find("out-of-range") != std::string::npos ||
@@ -1928,17 +1970,6 @@ RawModel decode(std::string_view bytes, const std::string& file, std::vector<std
     for (std::string& note : get_strings(in)) notes.push_back(std::move(note));
     if (!in.at_end()) throw ChildFailed("its result was damaged");
     return raw;
-}
-
-/// The format's name for messages ("glTF"), from the model format table, else the extension.
-std::string format_name(const std::filesystem::path& path) {
-    std::string ext = lower(path.extension().string());
-    if (!ext.empty() && ext.front() == '.') ext.erase(0, 1);
-    for (const ModelFormat& f : model_formats()) {
-        if (std::find(f.extensions.begin(), f.extensions.end(), ext) != f.extensions.end())
-            return f.name;
-    }
-    return ext.empty() ? std::string("model") : ext;
 }
 
 }  // namespace

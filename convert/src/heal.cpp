@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <limits>
@@ -28,6 +29,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "polygon_cdt.h"
 #include "raw_model.h"
 
 namespace abrad::convert::detail {
@@ -37,6 +39,12 @@ namespace {
 constexpr double kDegenerateAreaFactor = 1e-12;  ///< × bbox diagonal², m²
 constexpr double kNonPlanarTolerance = 1e-4;     ///< × polygon extent, before a note
 constexpr double kOverlapAreaFraction = 1e-6;    ///< of the smaller triangle, to count
+/// Polygons with more corners are triangulated by a constrained Delaunay triangulation.
+constexpr std::size_t kEarClippingCorners = 256;
+/// Most corners ear clipping takes (quadratic in them, cubic on self-intersecting polygons:
+/// about a second at this size in the sanitizer build): the fallback for larger polygons that
+/// the constrained triangulation refuses (self-intersecting, touching themselves) ends here.
+constexpr std::size_t kMaxEarClippingCorners = 2048;
 
 std::string format_general(double x) {
     std::array<char, 32> buf{};
@@ -50,6 +58,16 @@ std::string at(const RawModel& raw, std::size_t place, std::string_view message)
     s += ": ";
     s += message;
     return s;
+}
+
+/// An ImportError at a place of the raw model (a line of an OBJ, a mesh face of an Assimp
+/// file; raw.where names both, led by the file).
+ImportError error_at(const RawModel& raw, std::size_t place, const std::string& message) {
+    if (raw.source.format == "obj") return {raw.file, place, message};
+    std::string where = raw.where ? raw.where(place) : raw.file;
+    if (where.starts_with(raw.file)) where.erase(0, raw.file.size());
+    while (!where.empty() && (where.front() == ':' || where.front() == ' ')) where.erase(0, 1);
+    return {raw.file, 0, where.empty() ? message : where + ": " + message};
 }
 
 std::uint64_t mix(std::uint64_t h) {
@@ -102,16 +120,24 @@ double orient(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
     return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
 
+/// What triangulate() did with one polygon.
+struct Triangulated {
+    double off_plane = 0.0;  ///< farthest corner from the best-fit plane / polygon extent
+    bool done = true;        ///< false: too large for ear clipping and not a proper polygon
+};
+
 /// Triangulates one polygon (welded vertex ids, no two cyclically consecutive ids equal, at
-/// least 3) by ear clipping in its Newell plane. Appends exactly ids.size() - 2 triangles in
-/// the polygon's winding. Returns how far the farthest corner lies from the best-fit plane
-/// relative to the polygon's extent (0 for triangles).
-double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<std::uint32_t>& ids,
-                   std::vector<glm::u32vec3>& out) {
+/// least 3) in its Newell plane: a constrained Delaunay triangulation when it has more than
+/// kEarClippingCorners corners and is proper (polygon_cdt.h), else ear clipping, up to
+/// kMaxEarClippingCorners. Appends exactly ids.size() - 2 triangles in the polygon's winding,
+/// or none when `done` is false. Returns how far the farthest corner lies from the best-fit
+/// plane relative to the polygon's extent (0 for triangles).
+Triangulated triangulate(const std::vector<glm::dvec3>& positions,
+                         const std::vector<std::uint32_t>& ids, std::vector<glm::u32vec3>& out) {
     const std::size_t n = ids.size();
     if (n == 3) {
         out.emplace_back(ids[0], ids[1], ids[2]);
-        return 0.0;
+        return {};
     }
     // Compute the centroid _c_ and the Newell normal _normal_ (twice the vector area)
     glm::dvec3 c{0.0};
@@ -125,7 +151,7 @@ double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<s
     if (!(length > 0.0) || !std::isfinite(length)) {
         // No plane (all corners on a line): a fan; the caller drops the zero-area triangles
         for (std::size_t i = 1; i + 1 < n; ++i) out.emplace_back(ids[0], ids[i], ids[i + 1]);
-        return 0.0;
+        return {};
     }
     const glm::dvec3 w = normal / length;
 
@@ -143,6 +169,13 @@ double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<s
         hi = glm::max(hi, positions[ids[i]]);
     }
     const double extent = glm::length(hi - lo);
+    const double off = extent > 0.0 ? off_plane / extent : 0.0;
+
+    // Triangulate a large polygon in O(n log n); ear clip it only when it is not proper
+    if (n > kEarClippingCorners) {
+        if (triangulate_polygon_cdt(q, ids, out)) return {off, true};
+        if (n > kMaxEarClippingCorners) return {off, false};
+    }
 
     // Clip ears from a doubly linked ring of corners
     std::vector<std::size_t> prev(n);
@@ -207,7 +240,7 @@ double triangulate(const std::vector<glm::dvec3>& positions, const std::vector<s
         misses = 0;
     }
     out.emplace_back(ids[prev[cur]], ids[cur], ids[next[cur]]);
-    return extent > 0.0 ? off_plane / extent : 0.0;
+    return {off, true};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -388,12 +421,97 @@ struct FlatTriangle {
     glm::u32vec3 ids;
     glm::dvec3 normal;  ///< unit, the front
     double area;
+    std::uint32_t face;  ///< the face (polygon) it was triangulated from
 };
 
 struct OverlapTally {
     std::size_t pairs = 0;
     double area = 0.0;
 };
+
+/// A triangle of find_overlaps' plane group in the plane's frame.
+struct OverlapItem {
+    std::uint32_t index = 0;  ///< into the FlatTriangles
+    bool own = false;         ///< in the group's own offset cell (not the next one)
+    std::array<glm::dvec2, 3> q{};
+    glm::dvec2 lo{0.0}, hi{0.0};  ///< box of q
+};
+
+/// The box of a face's triangles in the plane's frame, and those triangles (OverlapItems).
+struct FaceBox {
+    glm::dvec2 lo{std::numeric_limits<double>::max()};
+    glm::dvec2 hi{std::numeric_limits<double>::lowest()};
+    std::vector<std::uint32_t> items;
+};
+
+/// Adds the overlapping pairs of one group of nearly coplanar triangles (`group`, indices into
+/// `tris`; the first `own` in the group's own offset cell) to `tally`.
+void tally_group(const std::vector<glm::dvec3>& positions, const std::vector<FlatTriangle>& tris,
+                 const std::vector<std::uint32_t>& group, std::size_t own, double tolerance,
+                 std::map<std::pair<std::uint32_t, std::uint32_t>, OverlapTally>& tally) {
+    const glm::dvec3 w = tris[group[0]].normal;
+    const auto [u, v] = visdb::orthonormal_basis(w);
+    // The triangles in the plane's (u, v) frame, and their faces' boxes
+    std::vector<OverlapItem> items(group.size());
+    std::map<std::uint32_t, FaceBox> faces;
+    for (std::size_t g = 0; g < group.size(); ++g) {
+        const FlatTriangle& t = tris[group[g]];
+        OverlapItem& item = items[g];
+        item.index = group[g];
+        item.own = g < own;
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3& p = positions[t.ids[k]];
+            item.q[k] = {glm::dot(p, u), glm::dot(p, v)};
+        }
+        item.lo = glm::min(item.q[0], glm::min(item.q[1], item.q[2]));
+        item.hi = glm::max(item.q[0], glm::max(item.q[1], item.q[2]));
+        FaceBox& box = faces[t.face];
+        for (const glm::dvec2& q : item.q) {
+            box.lo = glm::min(box.lo, q);
+            box.hi = glm::max(box.hi, q);
+        }
+        box.items.push_back(static_cast<std::uint32_t>(g));
+    }
+    // Sweep the faces along u: the triangles of one large polygon (long fans across it)
+    // are compared with other faces' only, never with each other's thousands
+    std::vector<const FaceBox*> order;
+    order.reserve(faces.size());
+    for (const auto& [face, box] : faces) order.push_back(&box);
+    std::sort(order.begin(), order.end(),
+              [](const FaceBox* a, const FaceBox* b) { return a->lo.x < b->lo.x; });
+    const auto compare = [&](const OverlapItem& a, const OverlapItem& b) {
+        if (!a.own && !b.own) return;  // both in the next cell: counted there
+        if (a.hi.x <= b.lo.x || b.hi.x <= a.lo.x || a.hi.y <= b.lo.y || b.hi.y <= a.lo.y) return;
+        const FlatTriangle& ta = tris[a.index];
+        const FlatTriangle& tb = tris[b.index];
+        if (glm::dot(ta.normal, tb.normal) < 1.0 - 1e-6) return;
+        for (int k = 0; k < 3; ++k)
+            if (std::abs(glm::dot(ta.normal, positions[tb.ids[k]] - positions[ta.ids.x])) >
+                tolerance)
+                return;
+        const double area = overlap_area(a.q, b.q);
+        if (area <= kOverlapAreaFraction * std::min(ta.area, tb.area)) return;
+        OverlapTally& t = tally[{std::min(ta.slot, tb.slot), std::max(ta.slot, tb.slot)}];
+        ++t.pairs;
+        t.area += area;
+    };
+    for (std::size_t i = 0; i < order.size(); ++i) {
+        const FaceBox& a = *order[i];
+        // Within a face: only a small one's triangles (ear clipping of a polygon that is
+        // not proper can fold them over each other; a constrained triangulation cannot;
+        // the ear-clipped fallback of 257 to 2,048 corners is not compared with itself)
+        if (a.items.size() <= kEarClippingCorners)
+            for (std::size_t x = 0; x < a.items.size(); ++x)
+                for (std::size_t y = x + 1; y < a.items.size(); ++y)
+                    compare(items[a.items[x]], items[a.items[y]]);
+        for (std::size_t j = i + 1; j < order.size() && order[j]->lo.x < a.hi.x; ++j) {
+            const FaceBox& b = *order[j];
+            if (a.hi.y <= b.lo.y || b.hi.y <= a.lo.y) continue;
+            for (const std::uint32_t x : a.items)
+                for (const std::uint32_t y : b.items) compare(items[x], items[y]);
+        }
+    }
+}
 
 /// Counts pairs of coplanar, same-facing triangles that overlap in area (z-fighting), per
 /// pair of slots. `tolerance` is the distance within which points count as on a plane.
@@ -425,60 +543,7 @@ std::map<std::pair<std::uint32_t, std::uint32_t>, OverlapTally> find_overlaps(
         if (const auto n = buckets.find(up); n != buckets.end())
             group.insert(group.end(), n->second.begin(), n->second.end());
         if (group.size() < 2) continue;
-        // Sweep along the plane's u axis; compare within the active window
-        const glm::dvec3 w = tris[group[0]].normal;
-        const auto [u, v] = visdb::orthonormal_basis(w);
-        struct Item {
-            double lo, hi, vlo, vhi;
-            std::uint32_t index;
-            bool own;
-            std::array<glm::dvec2, 3> q;
-        };
-        std::vector<Item> items;
-        items.reserve(group.size());
-        for (std::size_t g = 0; g < group.size(); ++g) {
-            const FlatTriangle& t = tris[group[g]];
-            Item item{std::numeric_limits<double>::max(),
-                      std::numeric_limits<double>::lowest(),
-                      std::numeric_limits<double>::max(),
-                      std::numeric_limits<double>::lowest(),
-                      group[g],
-                      g < own,
-                      {}};
-            for (int k = 0; k < 3; ++k) {
-                const glm::dvec3& p = positions[t.ids[k]];
-                item.q[k] = {glm::dot(p, u), glm::dot(p, v)};
-                item.lo = std::min(item.lo, item.q[k].x);
-                item.hi = std::max(item.hi, item.q[k].x);
-                item.vlo = std::min(item.vlo, item.q[k].y);
-                item.vhi = std::max(item.vhi, item.q[k].y);
-            }
-            items.push_back(item);
-        }
-        std::sort(items.begin(), items.end(),
-                  [](const Item& a, const Item& b) { return a.lo < b.lo; });
-        for (std::size_t i = 0; i < items.size(); ++i) {
-            for (std::size_t j = i + 1; j < items.size() && items[j].lo < items[i].hi; ++j) {
-                const Item& a = items[i];
-                const Item& b = items[j];
-                if (!a.own && !b.own) continue;  // both in the next cell: counted there
-                if (a.vhi <= b.vlo || b.vhi <= a.vlo) continue;
-                const FlatTriangle& ta = tris[a.index];
-                const FlatTriangle& tb = tris[b.index];
-                if (glm::dot(ta.normal, tb.normal) < 1.0 - 1e-6) continue;
-                bool coplanar = true;
-                for (int k = 0; k < 3 && coplanar; ++k)
-                    coplanar =
-                        std::abs(glm::dot(ta.normal, positions[tb.ids[k]] - positions[ta.ids.x])) <=
-                        tolerance;
-                if (!coplanar) continue;
-                const double area = overlap_area(a.q, b.q);
-                if (area <= kOverlapAreaFraction * std::min(ta.area, tb.area)) continue;
-                OverlapTally& t = tally[{std::min(ta.slot, tb.slot), std::max(ta.slot, tb.slot)}];
-                ++t.pairs;
-                t.area += area;
-            }
-        }
+        tally_group(positions, tris, group, own, tolerance, tally);
     }
     return tally;
 }
@@ -519,6 +584,7 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
     CappedNotes duplicate_notes(report.notes, "faces with duplicate triangles");
     CappedNotes planarity_notes(report.notes, "non-planar polygons triangulated");
     std::vector<std::vector<glm::u32vec3>> slot_triangles(raw.slots.size());
+    std::vector<std::vector<std::uint32_t>> slot_faces(raw.slots.size());  // face of each
     std::unordered_map<std::array<std::uint32_t, 3>, std::size_t, TriangleKeyHash> seen;
     std::vector<std::uint32_t> ids;
     std::vector<glm::u32vec3> triangles;
@@ -548,7 +614,15 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
                                         " degenerate triangle(s) dropped"));
         }
         triangles.clear();
-        const double off_plane = triangulate(welded, ids, triangles);
+        const auto [off_plane, done] = triangulate(welded, ids, triangles);
+        if (!done) {
+            throw error_at(raw, face.place,
+                           "polygon with " + std::to_string(ids.size()) +
+                               " corners whose edges cross or touch (a proper polygon may "
+                               "have any number of corners; one that is not, at most " +
+                               std::to_string(kMaxEarClippingCorners) +
+                               "); split it into simple faces");
+        }
         if (off_plane > kNonPlanarTolerance) {
             ++report.non_planar_polygons;
             planarity_notes.add(at(raw, face.place,
@@ -574,6 +648,7 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
                 continue;
             }
             slot_triangles[face.slot].push_back(t);
+            slot_faces[face.slot].push_back(static_cast<std::uint32_t>(&face - raw.faces.data()));
         }
         if (degenerate > 0) {
             report.degenerate_dropped += degenerate;
@@ -612,11 +687,13 @@ visdb::Scene heal(const RawModel& raw, const HealOptions& options, ImportReport&
     {
         std::vector<FlatTriangle> flat;
         for (std::size_t s = 0; s < raw.slots.size(); ++s) {
-            for (const glm::u32vec3& t : slot_triangles[s]) {
+            for (std::size_t k = 0; k < slot_triangles[s].size(); ++k) {
+                const glm::u32vec3& t = slot_triangles[s][k];
                 const glm::dvec3 n =
                     glm::cross(welded[t.y] - welded[t.x], welded[t.z] - welded[t.x]);
                 const double length = glm::length(n);
-                flat.push_back({static_cast<std::uint32_t>(s), t, n / length, 0.5 * length});
+                flat.push_back(
+                    {static_cast<std::uint32_t>(s), t, n / length, 0.5 * length, slot_faces[s][k]});
             }
         }
         const double tolerance = std::max(report.weld_distance, 1e-9 * diagonal);

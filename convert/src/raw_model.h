@@ -52,16 +52,16 @@ struct RawModel {
     std::function<std::string(std::size_t place)> where;
 };
 
-/// Most corners of one polygon: heal() triangulates by ear clipping, quadratic in the corners
-/// (cubic on self-intersecting polygons), so a 64k-corner face took minutes; readers refuse
-/// larger faces with their place.
-inline constexpr std::size_t kMaxPolygonCorners = 2048;
+/// Most corners of one polygon. heal() triangulates polygons of more than 256 corners in
+/// O(n log n) (a constrained Delaunay triangulation; a 64k-corner face takes a fraction of a
+/// second); the bound only keeps one face's work and memory in proportion to a file a CAD tool
+/// writes (each corner is at least two bytes of an OBJ line, four of a binary index list).
+inline constexpr std::size_t kMaxPolygonCorners = std::size_t{1} << 24;
 
 /// "polygon with N corners (at most kMaxPolygonCorners...)": the message for a larger face.
 inline std::string too_many_corners(std::size_t corners) {
     return "polygon with " + std::to_string(corners) + " corners (at most " +
-           std::to_string(kMaxPolygonCorners) +
-           ": ear clipping is quadratic in them); split it into smaller faces";
+           std::to_string(kMaxPolygonCorners) + "); split it into smaller faces";
 }
 
 /// Reads an OBJ file and its MTL libraries (obj_import.cpp). Notes go to `notes`.

@@ -46,7 +46,9 @@ std::vector<std::pair<std::string, std::string>> parameters_of(const BakeOptions
         p.emplace_back("dm_angle", std::to_string(o.dm_min_angle));
         p.emplace_back("refine_rounds", std::to_string(o.refine_rounds));
         p.emplace_back("refine_tolerance", std::to_string(o.refine_tolerance));
-        p.emplace_back("refine_min_edge", std::to_string(o.refine_min_edge));
+        p.emplace_back("refine_min_edge", o.refine_min_edge > 0.0
+                                              ? std::to_string(o.refine_min_edge)
+                                              : std::string("auto"));
     }
     return p;
 }
@@ -180,8 +182,8 @@ void validate(const BakeOptions& o) {
     if (!(o.refine_tolerance > 0.0 && o.refine_tolerance < 1e3))
         throw InputError("--refine-tolerance must be > 0, got " +
                          std::to_string(o.refine_tolerance));
-    if (!(o.refine_min_edge > 0.0 && std::isfinite(o.refine_min_edge)))
-        throw InputError("--refine-min-edge must be > 0 metres, got " +
+    if (!(o.refine_min_edge >= 0.0 && std::isfinite(o.refine_min_edge)))
+        throw InputError("--refine-min-edge must be >= 0 metres (0: 1/128 of the model), got " +
                          std::to_string(o.refine_min_edge));
 }
 

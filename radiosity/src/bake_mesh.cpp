@@ -2,6 +2,8 @@
 // planar regions (stages.h).
 
 #include <cmath>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <numeric>
 #include <string>
 #include <utility>
@@ -78,6 +80,17 @@ void add_surface(const visdb::Surface& surface, std::uint32_t index,
     }
 }
 
+/// The diagonal of the bounding box of `positions` (0 when empty).
+double bounding_diagonal(const std::vector<glm::dvec3>& positions) {
+    if (positions.empty()) return 0.0;
+    glm::dvec3 lo = positions[0], hi = positions[0];
+    for (const glm::dvec3& p : positions) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    return glm::length(hi - lo);
+}
+
 }  // namespace
 
 BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats) {
@@ -94,6 +107,7 @@ BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats)
     }
     build_incidence(g);
     find_lights(g);
+    g.size = bounding_diagonal(g.mesh.positions);
     if (stats) stats->degenerate_skipped = degenerate;
     if (g.mesh.triangles.empty()) throw InputError("the scene has no triangles to bake");
     if (g.lights.empty() && g.luminaires.empty()) {
@@ -120,6 +134,7 @@ BakeGeometry describe_mesh(const visdb::Scene& scene, visdb::BakeMesh mesh) {
     }
     build_incidence(g);
     find_lights(g);
+    g.size = bounding_diagonal(g.mesh.positions);
     return g;
 }
 

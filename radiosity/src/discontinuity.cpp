@@ -106,25 +106,27 @@ void assemble(const Regions& regions, const std::vector<MeshedRegion>& meshed,
 // give such coincident faces to one of them, while both are lit.
 using RegionLights = std::vector<std::vector<std::uint32_t>>;
 RegionLights region_lights(const Regions& regions,
-                           const std::vector<std::vector<std::uint32_t>>& lights_of_triangle) {
+                           const std::vector<std::vector<std::uint32_t>>& lights_of_triangle,
+                           double tolerance) {
     const std::size_t nr = regions.planar.size();
     RegionLights lights(nr);
     for (std::size_t t = 0; t < lights_of_triangle.size(); ++t) {
         auto& list = lights[regions.of_triangle[t]];
         list.insert(list.end(), lights_of_triangle[t].begin(), lights_of_triangle[t].end());
     }
-    // Regions by plane (normal and offset to 1e-6), with their boxes
+    // Regions by plane (normal to 1e-6, offset to `tolerance`), with their boxes
     std::map<std::array<std::int64_t, 4>, std::vector<std::uint32_t>> by_plane;
     std::vector<Box> box(nr);
     for (std::size_t r = 0; r < nr; ++r) {
         const PlanarRegion& region = regions.planar[r];
         if (region.positions.empty()) continue;
         for (const glm::dvec3& p : region.positions) box[r].grow(p);
-        box[r].inflate(1e-6);
+        box[r].inflate(tolerance);
         const glm::dvec3 n = region.normal;
         const double d = glm::dot(n, region.positions[0]);
-        const auto q = [](double x) { return static_cast<std::int64_t>(std::llround(x * 1e6)); };
-        by_plane[{q(n.x), q(n.y), q(n.z), q(d)}].push_back(static_cast<std::uint32_t>(r));
+        const auto q = [](double x) { return static_cast<std::int64_t>(std::llround(x)); };
+        by_plane[{q(n.x * 1e6), q(n.y * 1e6), q(n.z * 1e6), q(d / tolerance)}].push_back(
+            static_cast<std::uint32_t>(r));
     }
     RegionLights pooled = lights;
     for (const auto& [plane, members] : by_plane)
@@ -197,7 +199,7 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
 // linear interpolation of their ends; midpoints evaluated here go to `evaluated`.
 void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
                    const RegionSources& sources, const MeshedRegion& m, std::uint32_t r,
-                   const visdb::Rgb* h, double floor, const BakeOptions& options,
+                   const visdb::Rgb* h, double floor, double min_edge, const BakeOptions& options,
                    const IrradianceCache& cache, std::vector<glm::dvec3>& split,
                    std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
@@ -210,7 +212,7 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
     const glm::dvec3 rn = regions.planar[r].normal;
     for (const auto& [a, b] : edges) {
         const glm::dvec3 pa = m.positions[a], pb = m.positions[b];
-        if (glm::length(pb - pa) < options.refine_min_edge) continue;
+        if (glm::length(pb - pa) < min_edge) continue;
         // Canonical midpoint: the same bits from either region sharing the edge
         const glm::dvec3 mid =
             lexicographically_less(pa, pb) ? pa + 0.5 * (pb - pa) : pb + 0.5 * (pa - pb);
@@ -236,7 +238,7 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
 // returns how many were added.
 std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
                    const RegionSources& sources, const std::vector<MeshedRegion>& meshed,
-                   const DiscontinuityMesh& current, const BakeOptions& options,
+                   const DiscontinuityMesh& current, double min_edge, const BakeOptions& options,
                    IrradianceCache& cache, std::uint64_t& evaluations, ParallelProgress& progress) {
     double h_max = 0.0;
     for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
@@ -253,8 +255,8 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
         progress.add(meshed[r].triangles.size());
         if (regions.emitter[r]) return;
         refine_region(g, bvh, regions, sources, meshed[r], static_cast<std::uint32_t>(r),
-                      current.irradiance.data() + region_start[r], floor, options, cache, split[r],
-                      evaluated[r]);
+                      current.irradiance.data() + region_start[r], floor, min_edge, options, cache,
+                      split[r], evaluated[r]);
     });
     for (const auto& list : evaluated)
         for (const auto& [key, value] : list)
@@ -276,15 +278,20 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
                                        LightShots& shots, const BakeOptions& options,
                                        visdb::BakeStats* stats, const ProgressFn& progress) {
     std::vector<std::vector<ShadowSegment>>& segments = shots.segments;
-    const RegionSources sources{region_lights(regions, shots.lights_of_triangle),
-                                region_lights(regions, shots.luminaires_of_triangle)};
+    // Lengths relative to the model's size: a model in millimetres or kilometres meshes as the
+    // same model in metres would
+    const double tolerance = kLengthTolerance * g.size;
+    const double min_edge =
+        options.refine_min_edge > 0.0 ? options.refine_min_edge : kMinEdgeFraction * g.size;
+    const RegionSources sources{region_lights(regions, shots.lights_of_triangle, tolerance),
+                                region_lights(regions, shots.luminaires_of_triangle, tolerance)};
     const auto t_dm = Clock::now();
     visdb::DiscontinuityStats st;
     if (stats && stats->dm) st = *stats->dm;  // the shadow edge counters of shoot_lights
     st.regions = regions.planar.size();
     st.triangles_before = g.mesh.triangles.size();
     st.segments = add_constraints(segments, regions);
-    const DmOptions dm_options{.min_angle_deg = options.dm_min_angle, .merge_distance = 1e-6};
+    const DmOptions dm_options{.min_angle_deg = options.dm_min_angle, .merge_distance = tolerance};
     IrradianceCache cache;
     DiscontinuityMesh out;
     for (int round = 0;; ++round) {
@@ -312,8 +319,8 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
         if (round >= options.refine_rounds) break;
         ParallelProgress triangles(progress, "mesh: refinement, triangles" + of_rounds,
                                    out.mesh.triangles.size());
-        const std::size_t added = refine(g, bvh, regions, sources, meshed, out, options, cache,
-                                         st.exact_evaluations, triangles);
+        const std::size_t added = refine(g, bvh, regions, sources, meshed, out, min_edge, options,
+                                         cache, st.exact_evaluations, triangles);
         st.refine_points += added;
         if (added == 0) break;
     }

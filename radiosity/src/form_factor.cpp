@@ -6,7 +6,18 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 
+#include "abrad/radiosity/polygon.h"
+
 namespace abrad::radiosity {
+
+double unoccluded_triangle_form_factor(const glm::dvec3& x, const glm::dvec3& n,
+                                       const glm::dvec3 (&corners)[3]) {
+    Polygon3 poly;
+    for (const glm::dvec3& c : corners) poly.push_back(c);
+    poly = clip_polygon(poly, [&](const glm::dvec3& c) { return glm::dot(c - x, n); });
+    if (poly.size() < 3) return 0.0;
+    return point_polygon_form_factor(x, n, {poly.begin(), poly.end()});
+}
 
 double point_polygon_form_factor(const glm::dvec3& x, const glm::dvec3& n,
                                  std::span<const glm::dvec3> polygon) {

@@ -20,6 +20,7 @@
 #include <optional>
 #include <string>
 
+#include "abrad/radiosity/form_factor.h"
 #include "abrad/radiosity/hemicube.h"
 #include "abrad/radiosity/point_source.h"
 #include "abrad/radiosity/polygon.h"
@@ -47,17 +48,42 @@ struct Row {
     bool known = false;
 };
 
+// Elements smaller than this fraction of a cell are needles or slivers: whole small triangles,
+// or the sliver pieces gathered in their triangle's main element (make_elements).
+constexpr double kSmallElement = 1e-3;
+
+// The needle and sliver elements and the triangles they are made of.
+struct SmallElements {
+    std::span<const Patch> patches;
+    std::vector<std::vector<std::uint32_t>> triangles;  // per element; empty: not small
+};
+
 // Form factors from one shooting point onto the elements (the hemicube's, one per element,
-// ascending), each on the element's front or, with kBack, its back.
+// ascending), each on the element's front or, with kBack, its back. A hemicube gives an element
+// smaller than its sample (a needle) a whole fine sample, and dividing that share by the
+// element's tiny area made it hundreds of times too bright: with `small` (not for a luminaire,
+// whose pixels carry its web), a form factor more than kUndersampledFactor times the closed
+// form of the element's triangles' unoccluded view from the shooting point is replaced by the
+// closed form (as shade.cpp's patches); with the shooter's area (0: a point), the element's
+// form factor to the shooter, f × area / element area, is at most 1.
 void fold_row(std::span<const PatchFormFactor> element_ff,
-              const std::vector<IndirectSolution::Element>& elements, const glm::dvec3& from,
+              const std::vector<IndirectSolution::Element>& elements, const ShooterFrame& from,
+              double shooter_area, const SmallElements* small,
               const std::vector<glm::dvec3>& region_normal, Row& row) {
     row.entries.clear();
     row.front = row.total = 0.0;
-    for (const auto [e, f] : element_ff) {
+    for (const auto [e, f_hemicube] : element_ff) {
+        double f = f_hemicube;
+        if (small && !small->triangles[e].empty()) {
+            double f_max = 0.0;
+            for (const std::uint32_t t : small->triangles[e])
+                f_max += unoccluded_triangle_form_factor(from.origin, from.n, small->patches[t].p);
+            if (f > kUndersampledFactor * f_max) f = f_max;
+        }
+        if (shooter_area > 0.0) f = std::min(f, elements[e].area / shooter_area);
         // The shooter lights the element's front when it lies in front of the element's plane
         const bool front =
-            glm::dot(from - elements[e].centroid, region_normal[elements[e].region]) > 0.0;
+            glm::dot(from.origin - elements[e].centroid, region_normal[elements[e].region]) > 0.0;
         row.entries.push_back({front ? e : e | kBack, static_cast<float>(f)});
         row.front += front ? f : 0.0;
         row.total += f;
@@ -375,10 +401,19 @@ class Solver {
             main[t] = element_of(r, largest->i, largest->j);
             for (const Piece& q : pieces) {
                 const double a = q.area * tri_area / sum;
-                const bool sliver = q.area < 1e-3 * size * size;
+                const bool sliver = q.area < kSmallElement * size * size;
                 add_to(sliver ? main[t] : element_of(r, q.i, q.j), t, a, q.centroid);
                 m_sol.pieces += !sliver;
             }
+        }
+        // Needles and slivers hold only whole triangles and sliver pieces (a piece of a cell's
+        // kSmallElement or more makes an element at least that large)
+        m_small.patches = m_in.patches;
+        m_small.triangles.assign(m_sol.elements.size(), {});
+        for (std::size_t t = 0; t < nt; ++t) {
+            const std::uint32_t e = whole[t] != kNoPatch ? whole[t] : main[t];
+            if (e != kNoPatch && m_sol.elements[e].area < kSmallElement * size * size)
+                m_small.triangles[e].push_back(static_cast<std::uint32_t>(t));
         }
         m_targets =
             std::make_unique<ElementTargets>(m_sol, m_in.region, std::move(whole), std::move(main));
@@ -559,7 +594,7 @@ class Solver {
             const ShooterFrame frame = frame_of(light);
             const ShootResult shot = shoot(frame, m_in.patches, m_hemicube, m_shoot);
             Row row;
-            fold_row(shot.hits, m_sol.elements, frame.origin, m_region_normal, row);
+            fold_row(shot.hits, m_sol.elements, frame, area(light), &m_small, m_region_normal, row);
             const visdb::Rgb power = m_in.emittance[lights[li]] * area(light);
             std::lock_guard lock(merge);
             add_shot(row, power);
@@ -577,7 +612,7 @@ class Solver {
             for (const PointShooter& s : shooters) {
                 Row row;
                 fold_row(shoot(s.frame, m_in.patches, s.hemicube, m_shoot).hits, m_sol.elements,
-                         s.frame.origin, m_region_normal, row);
+                         s.frame, 0.0, nullptr, m_region_normal, row);
                 const std::vector<double>& w = s.hemicube.deltas();
                 add_shot(row, power, std::accumulate(w.begin(), w.end(), 0.0));
             }
@@ -619,7 +654,11 @@ class Solver {
             if (batch) batch->add(1);
             const ShooterFrame& frame = m_shooters[todo[k]];
             const ShootResult shot = shoot(frame, m_in.patches, m_row_hemicube, m_shoot);
-            fold_row(shot.hits, m_sol.elements, frame.origin, m_region_normal, m_rows[todo[k]]);
+            double shooter_area = 0.0;
+            for (const std::uint32_t e : members_of(todo[k]))
+                shooter_area += m_sol.elements[e].area;
+            fold_row(shot.hits, m_sol.elements, frame, shooter_area, &m_small, m_region_normal,
+                     m_rows[todo[k]]);
         });
         m_sol.rows_computed += todo.size();
         for (const std::uint32_t e : todo)
@@ -805,6 +844,7 @@ class Solver {
     std::string m_label;
     IndirectSolution m_sol;
     std::vector<visdb::Rgb> m_rho_area;
+    SmallElements m_small;  // needles and slivers, whose rows are bounded (fold_row)
     std::size_t m_ne = 0;
     double m_total_area = 0.0;
     double m_rho_mean = 0.0;  // area-weighted mean reflectance of the elements (channel mean)

@@ -12,28 +12,9 @@
 
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/radiosity/point_source.h"
-#include "abrad/radiosity/polygon.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
-
-namespace {
-
-/// A hemicube form factor this many times the closed form marks an undersampled patch.
-constexpr double kUndersampled = 2.0;
-
-/// Form factor from the shooting point `from` to the part of `p` in front of it, without
-/// occluders: what a hemicube at `from` could give `p` at most.
-double unoccluded_form_factor(const ShooterFrame& from, const Patch& p) {
-    Polygon3 poly;
-    for (const glm::dvec3& x : p.p) poly.push_back(x);
-    poly =
-        clip_polygon(poly, [&](const glm::dvec3& x) { return glm::dot(x - from.origin, from.n); });
-    if (poly.size() < 3) return 0.0;
-    return point_polygon_form_factor(from.origin, from.n, {poly.begin(), poly.end()});
-}
-
-}  // namespace
 
 double add_patch_irradiance(const ShootResult& shot, const ShooterFrame& from,
                             const visdb::Rgb& emittance, double light_area,
@@ -45,13 +26,14 @@ double add_patch_irradiance(const ShootResult& shot, const ShooterFrame& from,
         ff_sum += shot.form_factor[j];
         // A patch smaller than a hemicube sample still takes a whole (fine) sample, and
         // dividing the light's share by a sliver's tiny area made it 300-1,700 times too
-        // bright. A form factor more than kUndersampled times the closed form of the patch's
+        // bright. A form factor more than kUndersampledFactor times the closed form of the patch's
         // unoccluded view from the shooting point can only be that: it is replaced by the
         // closed form (pixel-edge errors of larger patches, either way, stay as they were).
         // The receiver's form factor to the light F_jL = F_Lj A_L / A_j is at most 1.
         double f = shot.form_factor[j];
-        const double f_max = unoccluded_form_factor(from, target.patches[j]);
-        if (f > kUndersampled * f_max) f = f_max;
+        const double f_max =
+            unoccluded_triangle_form_factor(from.origin, from.n, target.patches[j].p);
+        if (f > kUndersampledFactor * f_max) f = f_max;
         const double f_receiver = std::min(1.0, f * light_area / target.area[j]);
         triangle_irradiance[j] += emittance * f_receiver;
     }

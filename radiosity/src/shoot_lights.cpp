@@ -232,7 +232,7 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                 // the edge and grows beside it)
                 double f_receiver = -1.0;
                 for (const ShadowSegment& seg :
-                     shadow_edges(light, model, r, occ, 1e-6, &s, emitter)) {
+                     shadow_edges(light, model, r, occ, kLengthTolerance * g.size, &s, emitter)) {
                     if (f_receiver < 0.0) {
                         f_receiver = visible_form_factor(centroid(r), rn, light, {});
                         for (const glm::dvec3& x : r.p)
@@ -338,7 +338,8 @@ void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, c
                 // The most the point's light changes across a segment: its largest unoccluded
                 // value on the receiver and the segment
                 double f_receiver = -1.0;
-                for (const ShadowSegment& seg : point_shadow_edges(source, r, occ, 1e-6, &s)) {
+                for (const ShadowSegment& seg :
+                     point_shadow_edges(source, r, occ, kLengthTolerance * g.size, &s)) {
                     if (f_receiver < 0.0) {
                         f_receiver = unoccluded_point_irradiance(lum, centroid(r), rn);
                         for (const glm::dvec3& x : r.p)

@@ -34,10 +34,21 @@ inline double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+/// Lengths in the meshing that only tell points apart (merging, region planes, shadow segments
+/// too short to keep) are this fraction of the model's size (BakeGeometry::size): 1e-6 m in a
+/// 10 m building, and the same fraction of a model in millimetres or kilometres.
+inline constexpr double kLengthTolerance = 1e-7;
+/// The default shortest edge the refinement splits (BakeOptions::refine_min_edge = 0): this
+/// fraction of the model's size (0.05 m in a 4 x 4 x 3 m room).
+inline constexpr double kMinEdgeFraction = 1.0 / 128.0;
+
 /// A mesh to shoot onto and shade, with what shading needs beside it: per triangle its
 /// patch, area and material; per vertex its triangles (compressed rows).
 struct BakeGeometry {
     visdb::BakeMesh mesh;
+    /// The model's size, m: the diagonal of its vertices' bounding box; relative lengths
+    /// (kLengthTolerance, kMinEdgeFraction) are fractions of it.
+    double size = 0.0;
     std::vector<Patch> patches;                           ///< one per mesh triangle
     std::vector<double> area;                             ///< per triangle, m²
     std::vector<visdb::Rgb> emittance;                    ///< per triangle

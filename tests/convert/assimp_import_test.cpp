@@ -871,6 +871,95 @@ TEST(AssimpImport, DamagedFilesNameTheirPlace) {
     expect_import_error(dir.write("cut.ifc", "ISO-10303-21;\nHEADER;\n"), "truncated file");
 }
 
+/// A 3DS chunk: its id, its length (the 6-byte header counted) and its body, little endian.
+std::string chunk_3ds(std::uint16_t id, const std::string& body) {
+    std::string s;
+    const auto put = [&](std::uint64_t v, int bytes) {
+        for (int b = 0; b < bytes; ++b) s += static_cast<char>((v >> (8 * b)) & 0xFF);
+    };
+    put(id, 2);
+    put(6 + body.size(), 4);
+    return s + body;
+}
+
+/// One triangle (0,0,0) (1,0,0) (0,1,0) in object "Tri": main > version, editor > object >
+/// mesh > vertices (at byte 38), faces.
+std::string synthetic_3ds() {
+    std::string vertices = std::string("\x03\x00", 2);
+    for (const float x : {0.0F, 0.0F, 0.0F, 1.0F, 0.0F, 0.0F, 0.0F, 1.0F, 0.0F}) {
+        char b[4];
+        std::memcpy(b, &x, 4);
+        vertices.append(b, 4);
+    }
+    const std::string faces = std::string("\x01\x00\x00\x00\x01\x00\x02\x00\x00\x00", 10);
+    const std::string mesh = chunk_3ds(0x4110, vertices) + chunk_3ds(0x4120, faces);
+    const std::string object = chunk_3ds(0x4000, std::string("Tri\0", 4) + chunk_3ds(0x4100, mesh));
+    return chunk_3ds(
+        0x4D4D, chunk_3ds(0x0002, std::string("\x03\x00\x00\x00", 4)) + chunk_3ds(0x3D3D, object));
+}
+
+/// Line (1-based) of the first occurrence of `part` in `text`.
+std::size_t line_of(const std::string& text, const std::string& part) {
+    const std::size_t at = text.find(part);
+    return static_cast<std::size_t>(std::count(text.begin(), text.begin() + at, '\n')) + 1;
+}
+
+// Issue 19: Assimp's messages name no place ("Unable to read file, malformed XML", "Chunk is
+// too large", "Cannot parse string "abc" as a real number"). Broken files of each format
+// are refused at their line (Collada, DXF, PLY) or byte (3DS), and every refusal names the
+// file and the format.
+TEST(AssimpImport, BrokenFilesOfEachFormatNameTheirPlaceAndFormat) {
+    TempDir dir;
+    const std::string dae = synthetic_dae("", "Z_UP");
+    // Collada: cut in the middle of an element, a mismatched tag, an index past the vertices
+    const std::string cut = dae.substr(0, dae.find("<library_geometries>") + 30);
+    const std::size_t cut_lines = line_of(cut + "\x01", "\x01");
+    expect_import_error(dir.write("cut.dae", cut),
+                        "cut.dae:" + std::to_string(cut_lines) + ": column ");
+    expect_import_error(dir.write("cut2.dae", cut), "not well-formed Collada XML (");
+    std::string tag = dae;
+    tag.replace(tag.find("</vcount>"), 9, "</count>");
+    expect_import_error(dir.write("tag.dae", tag),
+                        "tag.dae:" + std::to_string(line_of(dae, "</vcount>")) +
+                            ": column 18: not well-formed Collada XML (mismatched tag)");
+    std::string index = dae;
+    index.replace(index.find("<p>0 1 2 3</p>"), 14, "<p>0 1 2 7</p>");
+    expect_import_error(dir.write("index.dae", index), "cannot read as Collada: ");
+
+    // 3DS: the file cut short (the main chunk claims more), a damaged inner length
+    const std::string tds = synthetic_3ds();
+    std::vector<std::string> notes;
+    EXPECT_EQ(read_assimp(dir.write("ok.3ds", tds), {}, notes).faces.size(), 1U);
+    expect_import_error(dir.write("cut.3ds", tds.substr(0, tds.size() - 10)),
+                        "cut.3ds: 3DS: byte 0: chunk 0x4D4D claims 98 bytes, the file has 88");
+    std::string inner = tds;
+    inner[40] = '\x40';  // the vertex chunk's length 0x2C becomes 0x010040
+    inner[42] = '\x01';
+    expect_import_error(
+        dir.write("inner.3ds", inner),
+        "inner.3ds: 3DS: byte 38: chunk 0x4110 claims 65600 bytes, the file has 60");
+
+    // DXF: a coordinate that is not a number, at its line
+    std::string dxf = synthetic_dxf();
+    const std::string wall = "3DFACE\n8\nWalls\n10\n0\n";
+    const std::size_t value = dxf.find(wall) + wall.size() - 2;
+    dxf.replace(value, 1, "abc");
+    expect_import_error(dir.write("word.dxf", dxf),
+                        "word.dxf:" + std::to_string(line_of(dxf, "\nabc\n") + 1) +
+                            ": cannot read as DXF: Cannot parse string \"abc\" as a real number");
+
+    // PLY: an ASCII file cut in its faces, a binary one cut in its vertices
+    const std::string header =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n";
+    expect_import_error(dir.write("cut.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+                        "cut.ply: PLY: file ends in element 'face' 1 of 2");
+    std::string binary = header;
+    binary.replace(binary.find("ascii"), 5, "binary_little_endian");
+    expect_import_error(dir.write("cut_binary.ply", binary + std::string(20, '\0')),
+                        "cut_binary.ply: PLY: file ends in element 'vertex' 1 of 3");
+}
+
 TEST(AssimpImport, InvalidOptions) {
     ABRAD_REQUIRE_SHARED_DATA("misc/cube.ply");
     std::vector<std::string> notes;

@@ -509,23 +509,102 @@ TEST(ObjImport, MaterialLibrariesOutsideTheModelFolderAreRefused) {
     }
 }
 
-// Issue 19: a face of 64k corners kept the ear clipper busy for minutes; faces over 2048
-// corners are refused at their line, and one of 2048 (a convex circle) is triangulated
-TEST(ObjImport, PolygonsOverTheCornerLimitAreRefused) {
-    TempDir dir;
-    const auto circle = [](std::size_t n) {
-        std::string s;
-        for (std::size_t i = 0; i < n; ++i) {
-            const double a = 2.0 * M_PI * static_cast<double>(i) / static_cast<double>(n);
-            s += "v " + std::to_string(std::cos(a)) + " " + std::to_string(std::sin(a)) + " 0\n";
+// A comb as one OBJ face, counter-clockwise in the xy plane: a base y in [-10, 0] under
+// `teeth` teeth 1 wide and 10 high, 1 apart (4 x teeth corners, integer coordinates).
+// `hole`: a 2 x 6 square hole in the base, reached by a bridge from the corner (0, -10) (the
+// face walks the bridge there and back: 6 more corners, two of them repeated vertices).
+// `crossing`: the two top corners of tooth 1 swapped, so two edges cross. Area: the comb's
+// 10 x (2 teeth - 1) + 10 x teeth, minus 12 for the hole.
+struct Comb {
+    std::string obj;
+    std::size_t corners = 0;
+    double area = 0.0;
+};
+
+Comb comb(std::size_t teeth, bool hole, bool crossing) {
+    std::vector<glm::dvec2> v;
+    const auto right = static_cast<double>(2 * teeth - 1);
+    v.emplace_back(right, -10.0);
+    for (std::size_t k = teeth; k-- > 0;) {
+        const auto x = static_cast<double>(2 * k);
+        if (k + 1 < teeth) v.emplace_back(x + 2.0, 0.0);  // the gap's bottom right
+        if (k + 1 < teeth) v.emplace_back(x + 1.0, 0.0);  // the gap's bottom left
+        v.emplace_back(x + 1.0, 10.0);
+        v.emplace_back(x, 10.0);
+    }
+    if (crossing) std::swap(v[v.size() - 6], v[v.size() - 5]);
+    v.emplace_back(0.0, -10.0);
+    std::vector<std::size_t> face(v.size());
+    for (std::size_t i = 0; i < v.size(); ++i) face[i] = i + 1;
+    if (hole) {
+        const std::size_t bridge = v.size();  // 1-based index of (0, -10)
+        for (const glm::dvec2 p :
+             {glm::dvec2(1, -8), glm::dvec2(1, -2), glm::dvec2(3, -2), glm::dvec2(3, -8)}) {
+            v.push_back(p);
+            face.push_back(v.size());
         }
-        s += "f";
-        for (std::size_t i = 1; i <= n; ++i) s += " " + std::to_string(i);
-        return s + "\n";
-    };
-    expect_error(dir.write("big.obj", circle(2049)), 2050, "polygon with 2049 corners");
-    const ImportResult r = import_obj(dir.write("limit.obj", circle(2048)), ImportOptions{});
-    EXPECT_EQ(r.report.triangles, 2046U);
+        face.push_back(bridge + 1);  // back to (1, -8)
+        face.push_back(bridge);      // and over the bridge to (0, -10)
+    }
+    Comb c;
+    for (const glm::dvec2 p : v) {
+        c.obj += "v " + std::to_string(std::lround(p.x)) + " " + std::to_string(std::lround(p.y)) +
+                 " 0\n";
+    }
+    c.obj += "f";
+    for (const std::size_t i : face) c.obj += " " + std::to_string(i);
+    c.obj += "\n";
+    c.corners = face.size();
+    c.area = 30.0 * static_cast<double>(teeth) - 10.0 - (hole ? 12.0 : 0.0);
+    return c;
+}
+
+/// Checks that `r` holds `triangles` triangles, all facing +z (none flipped or folded over),
+/// whose areas sum to `area`.
+void expect_flat_triangulation(const ImportResult& r, std::size_t triangles, double area) {
+    EXPECT_EQ(r.report.triangles, triangles);
+    double sum = 0.0;
+    std::size_t facing_down = 0;
+    for (const visdb::Surface& s : r.scene.surfaces) {
+        for (const glm::u32vec3& t : s.mesh.triangles) {
+            const double twice = triangle_normal(s.mesh, t).z;
+            facing_down += twice > 0.0 ? 0 : 1;
+            sum += 0.5 * twice;
+        }
+    }
+    EXPECT_EQ(facing_down, 0U);
+    EXPECT_NEAR(sum, area, 1e-9 * area);
+}
+
+// Issue 19: a face of 64k corners kept the ear clipper busy for minutes (it is quadratic in
+// them). Polygons over 256 corners are triangulated by a constrained Delaunay triangulation,
+// in O(n log n): every polygon gets n - 2 triangles covering exactly its area.
+TEST(ObjImport, PolygonsOfManyCornersAreTriangulated) {
+    TempDir dir;
+    const Comb big = comb(16384, false, false);
+    ASSERT_EQ(big.corners, 65536U);
+    const ImportResult r = import_obj(dir.write("comb.obj", big.obj), ImportOptions{});
+    expect_flat_triangulation(r, big.corners - 2, big.area);
+    EXPECT_EQ(r.report.degenerate_dropped, 0U);
+
+    // A hole reached by a bridge: the bridge is walked twice and is no boundary
+    const Comb holed = comb(100, true, false);
+    expect_flat_triangulation(import_obj(dir.write("holed.obj", holed.obj), ImportOptions{}),
+                              holed.corners - 2, holed.area);
+}
+
+// A polygon whose edges cross is no proper polygon for the constrained triangulation: up to
+// 2,048 corners the ear clipper takes it (n - 2 triangles, as before), a larger one is
+// refused at its line
+TEST(ObjImport, SelfCrossingPolygonsOverTheEarClippingLimitAreRefused) {
+    TempDir dir;
+    const Comb small = comb(300, false, true);
+    const ImportResult r = import_obj(dir.write("small.obj", small.obj), ImportOptions{});
+    EXPECT_EQ(r.report.triangles + r.report.degenerate_dropped, small.corners - 2);
+    const Comb big = comb(600, false, true);
+    ASSERT_EQ(big.corners, 2400U);
+    expect_error(dir.write("big.obj", big.obj), 2401,
+                 "polygon with 2400 corners whose edges cross");
 }
 
 TEST(ObjImport, CornellBoxOriginal) {

@@ -1,5 +1,6 @@
 // Fuzz targets: what abrad checks and rewrites before Assimp sees a file, in this process: the
-// DXF pre-pass and INSERT expansion (dxf), the PLY walk (ply), the GLB chunk lengths (glb).
+// DXF pre-pass and INSERT expansion (dxf), the PLY walk (ply), the GLB chunk lengths (glb),
+// the Collada XML and index checks (dae: expat) and the 3DS chunk walk (tds).
 
 #include <vector>
 
@@ -29,4 +30,10 @@ ABRAD_FUZZ_TARGET(ply) { return check(data, size, "ply"); }
 #endif
 #if !defined(ABRAD_FUZZ_LIBFUZZER) || defined(ABRAD_FUZZ_GLB)
 ABRAD_FUZZ_TARGET(glb) { return check(data, size, "glb"); }
+#endif
+#if !defined(ABRAD_FUZZ_LIBFUZZER) || defined(ABRAD_FUZZ_DAE)
+ABRAD_FUZZ_TARGET(dae) { return check(data, size, "dae"); }
+#endif
+#if !defined(ABRAD_FUZZ_LIBFUZZER) || defined(ABRAD_FUZZ_TDS)
+ABRAD_FUZZ_TARGET(tds) { return check(data, size, "3ds"); }
 #endif

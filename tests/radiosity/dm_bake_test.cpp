@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <glm/geometric.hpp>
 #include <map>
 #include <string>
@@ -112,6 +113,68 @@ TEST(DmBake, FieldErrorIsAFractionOfTheUnmeshedOne) {
     }
 }
 
+// `scene` with every position times `scale`.
+visdb::Scene scaled(visdb::Scene scene, double scale) {
+    for (visdb::Surface& s : scene.surfaces)
+        for (glm::dvec3& p : s.mesh.positions) p *= scale;
+    return scene;
+}
+
+// Issue 19: the refinement's lengths were metres (0.05 m shortest edge, 1e-6 m merging), so a
+// model in millimetres was refined 5 times less than the same model in metres. They are
+// fractions of the model's size now. Scaled by 2^-10 and 2^10 (exact in binary: every
+// relative decision is the same), the room meshes to the same triangles with the same
+// irradiance at the same relative places; scaled by 1e-3 and 1e3 (a model declared in
+// millimetres or kilometres), rounding breaks the room's exact ties (shadow edges through
+// vertices) differently: within 3 % of the triangles and 6 % of the field error (with the
+// lengths in metres, the millimetre room's field error was 10 times the metre room's).
+TEST(DmBake, ModelsInMillimetresOrKilometresMeshAsInMetres) {
+    const visdb::Scene metres = room(4);
+    BakeOptions o;
+    o.bounces = 0;
+    const visdb::Bake reference = bake(metres, o);
+    const double e_metres = field_error_of(metres, o);
+    for (const double scale : {1.0 / 1024.0, 1024.0}) {
+        SCOPED_TRACE("scale " + std::to_string(scale));
+        const visdb::Scene model = scaled(metres, scale);
+        const visdb::Bake b = bake(model, o);
+        ASSERT_EQ(b.mesh.triangles.size(), reference.mesh.triangles.size());
+        ASSERT_EQ(b.mesh.positions.size(), reference.mesh.positions.size());
+        std::size_t moved = 0, changed = 0;
+        for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+            moved += glm::length(b.mesh.positions[v] / scale - reference.mesh.positions[v]) > 1e-9;
+            changed +=
+                glm::length(glm::dvec3(b.mesh.irradiance[v] - reference.mesh.irradiance[v])) >
+                1e-5 * glm::length(glm::dvec3(reference.mesh.irradiance[v])) + 1e-9;
+        }
+        EXPECT_EQ(moved, 0U);
+        EXPECT_EQ(changed, 0U);
+        EXPECT_NEAR(field_error_of(model, o), e_metres, 1e-6 * e_metres);
+    }
+    for (const double scale : {1e-3, 1e3}) {
+        SCOPED_TRACE("scale " + std::to_string(scale));
+        const visdb::Scene model = scaled(metres, scale);
+        std::size_t triangles = 0;
+        const double e = field_error_of(model, o, &triangles);
+        const auto expected = static_cast<double>(reference.mesh.triangles.size());
+        EXPECT_NEAR(static_cast<double>(triangles), expected, 0.03 * expected);
+        EXPECT_NEAR(e, e_metres, 0.06 * e_metres);
+    }
+    // What it was: with the shortest edge fixed at 0.05 m, the millimetre room (4 mm across)
+    // is not refined at all
+    BakeOptions fixed = o;
+    fixed.refine_min_edge = 0.05;
+    std::size_t t_metres = 0, t_mm = 0;
+    const double e_fixed = field_error_of(metres, fixed, &t_metres);
+    const double e_fixed_mm = field_error_of(scaled(metres, 1e-3), fixed, &t_mm);
+    EXPECT_LT(t_mm, t_metres);
+    EXPECT_GT(e_fixed_mm, 1.5 * e_fixed);
+    std::printf(
+        "field error: metres %.4f (%zu triangles); 0.05 m fixed: metres %.4f, mm %.4f "
+        "(%zu triangles)\n",
+        e_metres, reference.mesh.triangles.size(), e_fixed, e_fixed_mm, t_mm);
+}
+
 TEST(DmBake, RejectsBadRefinementOptions) {
     BakeOptions o;
     o.dm_min_angle = 25;
@@ -125,6 +188,8 @@ TEST(DmBake, RejectsBadRefinementOptions) {
     o = {};
     o.refine_min_edge = -1;
     EXPECT_THROW(validate(o), InputError);
+    o.refine_min_edge = 0;  // the default: 1/128 of the model's size
+    EXPECT_NO_THROW(validate(o));
 }
 
 }  // namespace

@@ -320,5 +320,59 @@ TEST(Interreflection, BlackRoomLightAndObstructionAgainstTheClosedForm) {
     }
 }
 
+// Issue 19: an element is what its triangles' pieces cover, so a needle face (its own region,
+// 2e-5 m wide) is an element of a few mm². A shooter's hemicube still gives it a whole
+// sample, and dividing that share by its tiny area made its indirect irradiance hundreds of
+// times too large. Its indirect part must be what a probe gathers at the same points from the
+// bake (the probe's hemicube sees the room, not the needle; the element's one value over a
+// needle 0.3 m from two walls is 18 % off at its end), and its total at most what the light
+// and the room can deliver.
+TEST(Interreflection, NeedleElementsGetWhatTheRoomDelivers) {
+    visdb::Scene scene = room({0.5, 0.5, 0.5, 0.0});
+    scene.materials.push_back({"needle", visdb::Rgb(0.5), {0, 0, 0}, 1.0});
+    struct Needle {
+        glm::dvec3 a, b, c;
+        glm::dvec3 n;
+    };
+    const std::vector<Needle> needles = {
+        {{-0.3, 0.4, 1.0}, {0.3, 0.4, 1.0}, {0.3, 0.40002, 1.0}, {0, 0, 1}},    // facing up
+        {{1.2, -1.7, 0.5}, {1.9, -1.7, 0.5}, {1.9, -1.69998, 0.5}, {0, 0, 1}},  // near a wall
+        {{-1.0, 1.0, 2.0}, {-1.0, 1.2, 2.0}, {-1.00002, 1.2, 2.0}, {0, 0, 1}},  // short, high
+    };
+    for (const Needle& n : needles) {
+        visdb::Surface s;
+        s.name = "needle";
+        s.material = 4;
+        s.mesh.positions = {n.a, n.b, n.c};
+        s.mesh.triangles = {{0, 1, 2}};
+        scene.surfaces.push_back(s);
+    }
+    const auto first_needle = static_cast<std::uint32_t>(scene.surfaces.size() - needles.size());
+    const visdb::Bake b = bake(scene, quick(-1));
+    const visdb::Bake direct_only = bake(scene, quick(0));
+    const PointIrradiance probe(scene, &b);
+    const PointIrradiance probe_direct(scene, nullptr);
+    int checked = 0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        const std::uint32_t surface = b.mesh.triangle_surface[t];
+        if (surface < first_needle) continue;
+        const Needle& n = needles[surface - first_needle];
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = b.mesh.triangles[t][k];
+            const glm::dvec3 x = b.mesh.positions[v];
+            const double indirect = b.mesh.irradiance[v].y - direct_only.mesh.irradiance[v].y;
+            const ProbePoint point{x + 1e-6 * n.n, n.n};
+            const double total = probe.at({&point, 1})[0].y;
+            const double gathered = total - probe_direct.at({&point, 1})[0].y;
+            EXPECT_NEAR(indirect, gathered, 0.25 * gathered)
+                << "needle " << surface - first_needle << " at " << x.x << ", " << x.y;
+            EXPECT_LE(b.mesh.irradiance[v].y, 1.25 * total)
+                << "needle " << surface - first_needle << " at " << x.x << ", " << x.y;
+            ++checked;
+        }
+    }
+    EXPECT_EQ(checked, 9);
+}
+
 }  // namespace
 }  // namespace abrad::radiosity

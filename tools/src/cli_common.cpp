@@ -156,7 +156,7 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
                    "interpolated value by more than this fraction")
         ->capture_default_str();
     app.add_option("--refine-min-edge", a.refine_min_edge,
-                   "Shortest edge refinement splits, metres")
+                   "Shortest edge refinement splits, metres (0: 1/128 of the model's size)")
         ->capture_default_str();
     app.add_option("--reach", a.reach,
                    "Light reach in metres: a light lights, shades and shadows only "

@@ -85,14 +85,17 @@ struct BakeOptions {
     int refine_rounds = 4;      ///< illumination-driven refinement rounds (0 = shadow edges only)
     double refine_tolerance = 0.07;  ///< split an edge when its midpoint's exact irradiance departs
                                      ///< from the linear interpolation by more than this, relative
-    double refine_min_edge = 0.05;   ///< edges shorter than this (metres) are not split
+    /// Edges shorter than this (metres) are not split; 0: 1/128 of the model's size (its
+    /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room), so that a model meshes the same
+    /// in any unit.
+    double refine_min_edge = 0.0;
 };
 
 /// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces in [-1, 1000],
 /// converge in (0, 1), element_size > 0, overrelaxation in [1, 2), threads >= 0,
 /// reach >= 0,
 /// dm_min_angle in [0, 20.7], refine_rounds in [0, 20], refine_tolerance > 0,
-/// refine_min_edge > 0); throws InputError naming the option and value.
+/// refine_min_edge >= 0); throws InputError naming the option and value.
 void validate(const BakeOptions& options);
 
 /// pbrt-v4's ReportUnused for the bake: throws InputError naming the first of `given` (the

@@ -13,6 +13,17 @@ namespace abrad::radiosity {
 double point_polygon_form_factor(const glm::dvec3& x, const glm::dvec3& n,
                                  std::span<const glm::dvec3> polygon);
 
+/// Form factor from a differential area at `x` with unit normal `n` to the part of triangle
+/// `corners` in front of the point's plane, without occluders: what a hemicube at `x` can give
+/// the triangle at most (point_polygon_form_factor of the clipped triangle; 0 behind).
+double unoccluded_triangle_form_factor(const glm::dvec3& x, const glm::dvec3& n,
+                                       const glm::dvec3 (&corners)[3]);
+
+/// A hemicube form factor this many times unoccluded_triangle_form_factor marks a receiver
+/// smaller than the hemicube's sample (a needle, a sliver), which took a whole sample: the
+/// patch shading and the interreflection replace it by the closed form.
+inline constexpr double kUndersampledFactor = 2.0;
+
 /// Closed form: differential area to a parallel rectangle a × b at distance c, the normal of
 /// the area passing through one corner of the rectangle (Howell C-11).
 double ff_parallel_rectangle_corner(double a, double b, double c);
