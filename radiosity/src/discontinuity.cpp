@@ -281,8 +281,9 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     // Lengths relative to the model's size: a model in millimetres or kilometres meshes as the
     // same model in metres would
     const double tolerance = kLengthTolerance * g.size;
-    const double min_edge =
-        options.refine_min_edge > 0.0 ? options.refine_min_edge : kMinEdgeFraction * g.size;
+    const double min_edge = options.refine_min_edge > 0.0
+                                ? options.refine_min_edge
+                                : std::min(kMinEdgeMetres, kMinEdgeFraction * g.size);
     const RegionSources sources{region_lights(regions, shots.lights_of_triangle, tolerance),
                                 region_lights(regions, shots.luminaires_of_triangle, tolerance)};
     const auto t_dm = Clock::now();

@@ -39,8 +39,11 @@ inline double seconds_since(Clock::time_point t0) {
 /// 10 m building, and the same fraction of a model in millimetres or kilometres.
 inline constexpr double kLengthTolerance = 1e-7;
 /// The default shortest edge the refinement splits (BakeOptions::refine_min_edge = 0): this
-/// fraction of the model's size (0.05 m in a 4 x 4 x 3 m room).
+/// fraction of the model's size (0.05 m in a 4 x 4 x 3 m room), at most kMinEdgeMetres, so
+/// that a model in millimetres is refined as in metres and a whole building as finely as one
+/// of its rooms (a shadow's detail on a desk does not grow with the building around it).
 inline constexpr double kMinEdgeFraction = 1.0 / 128.0;
+inline constexpr double kMinEdgeMetres = 0.05;
 
 /// A mesh to shoot onto and shade, with what shading needs beside it: per triangle its
 /// patch, area and material; per vertex its triangles (compressed rows).

@@ -137,7 +137,11 @@ TEST(DmBake, ModelsInMillimetresOrKilometresMeshAsInMetres) {
     for (const double scale : {1.0 / 1024.0, 1024.0}) {
         SCOPED_TRACE("scale " + std::to_string(scale));
         const visdb::Scene model = scaled(metres, scale);
-        const visdb::Bake b = bake(model, o);
+        // The default shortest edge is capped at 0.05 m (a building is refined as finely as a
+        // room), so a room in kilometres gets it scaled with it explicitly
+        BakeOptions os = o;
+        if (scale > 1.0) os.refine_min_edge = 0.05 * scale;
+        const visdb::Bake b = bake(model, os);
         ASSERT_EQ(b.mesh.triangles.size(), reference.mesh.triangles.size());
         ASSERT_EQ(b.mesh.positions.size(), reference.mesh.positions.size());
         std::size_t moved = 0, changed = 0;
@@ -149,13 +153,15 @@ TEST(DmBake, ModelsInMillimetresOrKilometresMeshAsInMetres) {
         }
         EXPECT_EQ(moved, 0U);
         EXPECT_EQ(changed, 0U);
-        EXPECT_NEAR(field_error_of(model, o), e_metres, 1e-6 * e_metres);
+        EXPECT_NEAR(field_error_of(model, os), e_metres, 1e-6 * e_metres);
     }
     for (const double scale : {1e-3, 1e3}) {
         SCOPED_TRACE("scale " + std::to_string(scale));
         const visdb::Scene model = scaled(metres, scale);
+        BakeOptions os = o;
+        if (scale > 1.0) os.refine_min_edge = 0.05 * scale;
         std::size_t triangles = 0;
-        const double e = field_error_of(model, o, &triangles);
+        const double e = field_error_of(model, os, &triangles);
         const auto expected = static_cast<double>(reference.mesh.triangles.size());
         EXPECT_NEAR(static_cast<double>(triangles), expected, 0.03 * expected);
         EXPECT_NEAR(e, e_metres, 0.06 * e_metres);
@@ -173,6 +179,25 @@ TEST(DmBake, ModelsInMillimetresOrKilometresMeshAsInMetres) {
         "field error: metres %.4f (%zu triangles); 0.05 m fixed: metres %.4f, mm %.4f "
         "(%zu triangles)\n",
         e_metres, reference.mesh.triangles.size(), e_fixed, e_fixed_mm, t_mm);
+}
+
+// The default shortest edge is 1/128 of the model's size but at most 0.05 m: a room in a
+// building 40 m across (here: the room and a small wall 40 m away) is refined as the room alone
+// is, not to 1/128 of the building (0.32 m).
+TEST(DmBake, ABuildingIsRefinedAsFinelyAsARoom) {
+    visdb::Scene building = room(4);
+    building.surfaces.push_back(quad_grid("wall", 3, {40, 0, 0}, {0, 0, 0.1}, {0, 0.1, 0}, 1));
+    BakeOptions o;
+    o.bounces = 0;
+    o.refine_tolerance = 0.01;  // fine enough that the shortest edge decides
+    BakeOptions capped = o, fraction = o;
+    capped.refine_min_edge = 0.05;
+    fraction.refine_min_edge = std::sqrt(41.0 * 41.0 + 2.0 * 2.0 + 1.5 * 1.5) / 128.0;
+    const visdb::Bake b = bake(building, o), b_capped = bake(building, capped);
+    const visdb::Bake b_fraction = bake(building, fraction);
+    EXPECT_EQ(b.mesh.triangles.size(), b_capped.mesh.triangles.size());
+    EXPECT_EQ(b.mesh.positions, b_capped.mesh.positions);
+    EXPECT_GT(b.mesh.triangles.size(), b_fraction.mesh.triangles.size());
 }
 
 TEST(DmBake, RejectsBadRefinementOptions) {

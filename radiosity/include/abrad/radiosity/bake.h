@@ -86,8 +86,8 @@ struct BakeOptions {
     double refine_tolerance = 0.07;  ///< split an edge when its midpoint's exact irradiance departs
                                      ///< from the linear interpolation by more than this, relative
     /// Edges shorter than this (metres) are not split; 0: 1/128 of the model's size (its
-    /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room), so that a model meshes the same
-    /// in any unit.
+    /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room) and at most 0.05 m, so that a
+    /// small model meshes as it would in metres and a building as finely as a room.
     double refine_min_edge = 0.0;
 };
 
