@@ -54,21 +54,10 @@ constexpr Command kCommands[] = {
 
 // Runs the parsed subcommand, mapping every error to its message and exit status.
 int run_command(const Command& command, const Invocation& call) {
-    auto fail = [&](const char* what, int status) {
-        std::cerr << "abrad " << command.name << ": " << what << "\n";
-        return status;
-    };
     try {
         return command.run(call);
-    } catch (const CommandError& e) {
-        return fail(e.message.c_str(), e.status);
-    } catch (const visdb::StoreError& e) {
-        return fail(e.what(),
-                    e.kind() == visdb::StoreError::Kind::Failure ? kExitFailure : kExitBadInput);
-    } catch (const radiosity::InputError& e) {  // settings or a scene that cannot be baked
-        return fail(e.what(), kExitBadInput);
-    } catch (const std::exception& e) {  // ExportError, filesystem errors, bad_alloc...
-        return fail(e.what(), kExitFailure);
+    } catch (...) {
+        return report_failure(command.name, "", std::current_exception());
     }
 }
 

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
+#include <iostream>
+#include <utility>
 
 #include "abrad/convert/import.h"
 #include "abrad/export/exposure.h"
@@ -17,6 +19,25 @@ namespace abrad::tools::cli {
 void bad_input(const std::string& message) { throw CommandError{kExitBadInput, message}; }
 
 void failure(const std::string& message) { throw CommandError{kExitFailure, message}; }
+
+int report_failure(const char* command, const std::string& prefix, std::exception_ptr error) {
+    auto fail = [&](const char* what, int status) {
+        std::cerr << "abrad " << command << ": " << prefix << what << "\n";
+        return status;
+    };
+    try {
+        std::rethrow_exception(std::move(error));
+    } catch (const CommandError& e) {
+        return fail(e.message.c_str(), e.status);
+    } catch (const visdb::StoreError& e) {
+        return fail(e.what(),
+                    e.kind() == visdb::StoreError::Kind::Failure ? kExitFailure : kExitBadInput);
+    } catch (const radiosity::InputError& e) {  // settings or a scene that cannot be baked
+        return fail(e.what(), kExitBadInput);
+    } catch (const std::exception& e) {  // ExportError, filesystem errors, bad_alloc...
+        return fail(e.what(), kExitFailure);
+    }
+}
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -42,6 +42,8 @@
 
 namespace abrad::radiosity {
 
+class Cluster;
+
 /// How vertex shades are computed.
 enum class Shading {
     Exact,  ///< exact direct irradiance at each vertex, occluders from the fragment lists
@@ -86,6 +88,10 @@ struct BakeOptions {
     double refine_tolerance = 0.07;  ///< split an edge when its midpoint's exact irradiance departs
                                      ///< from the linear interpolation by more than this, relative
     double refine_min_edge = 0.05;   ///< edges shorter than this (metres) are not split
+    /// When set, the MPI ranks the bake's work is shared with (cluster.h): every rank calls
+    /// `bake` with the same scene and options; rank 0 returns the bake, the others an empty
+    /// one once their share is done. Null: this process alone.
+    Cluster* cluster = nullptr;
 };
 
 /// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces in [-1, 1000],
