@@ -9,8 +9,10 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <string>
+#include <string_view>
 
 #include "abrad/export/writers.h"
+#include "abrad/radiosity/cluster.h"
 #include "abrad/visdb/store.h"
 #include "src/cli_common.h"
 
@@ -55,6 +57,10 @@ constexpr Command kCommands[] = {
 // Runs the parsed subcommand, mapping every error to its message and exit status.
 int run_command(const Command& command, const Invocation& call) {
     try {
+        // Only bake shares its work over MPI ranks; the others would run once per rank
+        if (radiosity::Cluster::launched_as_ranks() && std::string_view(command.name) != "bake")
+            bad_input(std::string("only abrad bake runs as several MPI ranks: run ") +
+                      command.name + " once, without mpirun or srun");
         return command.run(call);
     } catch (...) {
         return report_failure(command.name, "", std::current_exception());

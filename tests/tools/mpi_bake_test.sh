@@ -4,14 +4,16 @@
 #   equivalence  the direct light baked by 1, 2 and 4 ranks against the bake of one process
 #                without mpirun. Without discontinuity meshing (the exact vertex irradiance
 #                summed over the ranks) the exported PLY is the same, byte for byte. With it
-#                (shadow segments gathered, exact evaluations shared by region) the vertices,
-#                with every property, and the triangles are the same (ply_canonical.py): the
+#                (2 and 4 ranks; shadow segments gathered, exact evaluations shared by
+#                region) the vertices, with every property, and the triangles are the same
+#                (ply_canonical.py): the
 #                mesher numbers a region's vertices in an order that depends on its memory
 #                addresses, different in another process (and in one process from run to run
 #                when threads share the regions).
 #   killed       a rank killed mid-bake (SIGKILL at its first exchange, ABRAD_TEST_KILL_RANK)
 #                fails the job: a non-zero status, rank 0 says nothing was stored, and the
-#                database keeps every byte
+#                database keeps every byte; and a subcommand other than bake refuses to run as
+#                one of several ranks (exit 2)
 # Usage: mpi_bake_test.sh ABRAD WITH_MPI LSAN_SUPPRESSIONS WORK_DIR equivalence|killed
 # (ply_canonical.py beside this script, run by python3)
 # Exit 77 (skipped) when the build has no MPI or mpirun is missing.
@@ -76,12 +78,12 @@ equivalence)
     done
     echo "--dm off: 1, 2 and 4 ranks export the PLY of one process, byte for byte"
     bake_and_export dm-on-alone 0 --bounces 0
-    for ranks in 1 2 4; do
+    for ranks in 2 4; do  # (one rank runs without MPI: the first loop shows it)
         bake_and_export "dm-on-np$ranks" "$ranks" --bounces 0
         cmp "$work/dm-on-alone.canonical" "$work/dm-on-np$ranks.canonical" ||
             fail "--dm on: $ranks ranks bake other vertices or triangles than one process"
     done
-    echo "--dm on: 1, 2 and 4 ranks bake the vertices and triangles of one process"
+    echo "--dm on: 2 and 4 ranks bake the vertices and triangles of one process"
     ;;
 killed)
     before=$(sha256sum <"$work/scene.visdb")
@@ -95,6 +97,11 @@ killed)
     [[ $(sha256sum <"$work/scene.visdb") == "$before" ]] || fail "the database changed"
     "$abrad" info --db "$work/scene.visdb" | grep -q "bakes (0)" || fail "a bake was stored"
     echo "a killed rank failed the job (status $status); the database is as it was"
+    # Only bake runs as ranks: another subcommand launched as one of several is refused
+    status=0
+    OMPI_COMM_WORLD_SIZE=2 "$abrad" info --db "$work/scene.visdb" >"$work/info.log" 2>&1 || status=$?
+    ((status == 2)) && grep -q "only abrad bake runs as several MPI ranks" "$work/info.log" ||
+        { cat "$work/info.log"; fail "info as one of 2 ranks: status $status"; }
     ;;
 *)
     fail "unknown case '$case'"
