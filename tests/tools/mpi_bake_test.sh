@@ -57,8 +57,8 @@ bake_and_export() {
     ((ranks < 2)) || launch=(env "LSAN_OPTIONS=$lsan_mpi" "${launch[@]}")
     "${launch[@]}" "$abrad" bake --db "$work/$name.visdb" "$@" >"$work/$name.log" 2>&1 ||
         { cat "$work/$name.log"; fail "bake $name"; }
-    if ((ranks > 1)); then
-        grep -q "shared over $ranks ranks" "$work/$name.log" ||
+    if ((ranks > 1)); then  # the bake records how many ranks shared it
+        "$abrad" info --db "$work/$name.visdb" | grep -q " ranks=$ranks\b" ||
             { cat "$work/$name.log"; fail "$name did not run as $ranks ranks"; }
     fi
     "$abrad" export --db "$work/$name.visdb" --format ply --output "$work/$name.ply" \
