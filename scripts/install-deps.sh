@@ -7,6 +7,7 @@ packages=(cmake g++ make ccache pkg-config libsqlite3-dev libglm-dev libgtest-de
           libopenimageio-dev openimageio-tools libtinygltf-dev nlohmann-json3-dev libexpat1-dev fonts-dejavu-core
           povray povray-includes libopenmesh-dev
           python3-meshio  # the export tests read PLY with meshio (Debian's /usr/bin/python3)
+          openmpi-bin libopenmpi-dev  # the bake shared over MPI ranks (mpirun; ABRAD_MPI)
           clang-format clang-tidy  # the style tests (Debian 12: version 14)
           chromium)  # the report's browser test (headless, WebGL through SwiftShader)
 # Node.js and npm for the export tests' readers (tests/export/package.json: the Khronos glTF

@@ -9,8 +9,10 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <string>
+#include <string_view>
 
 #include "abrad/export/writers.h"
+#include "abrad/radiosity/cluster.h"
 #include "abrad/visdb/store.h"
 #include "src/cli_common.h"
 
@@ -58,21 +60,14 @@ constexpr Command kCommands[] = {
 
 // Runs the parsed subcommand, mapping every error to its message and exit status.
 int run_command(const Command& command, const Invocation& call) {
-    auto fail = [&](const char* what, int status) {
-        std::cerr << "abrad " << command.name << ": " << what << "\n";
-        return status;
-    };
     try {
+        // Only bake shares its work over MPI ranks; the others would run once per rank
+        if (radiosity::Cluster::launched_as_ranks() && std::string_view(command.name) != "bake")
+            bad_input(std::string("only abrad bake runs as several MPI ranks: run ") +
+                      command.name + " once, without mpirun or srun");
         return command.run(call);
-    } catch (const CommandError& e) {
-        return fail(e.message.c_str(), e.status);
-    } catch (const visdb::StoreError& e) {
-        return fail(e.what(),
-                    e.kind() == visdb::StoreError::Kind::Failure ? kExitFailure : kExitBadInput);
-    } catch (const radiosity::InputError& e) {  // settings or a scene that cannot be baked
-        return fail(e.what(), kExitBadInput);
-    } catch (const std::exception& e) {  // ExportError, filesystem errors, bad_alloc...
-        return fail(e.what(), kExitFailure);
+    } catch (...) {
+        return report_failure(command.name, "", std::current_exception());
     }
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "abrad/radiosity/cluster.h"
 #include "abrad/visdb/material_check.h"
 #include "stages.h"
 
@@ -82,6 +83,13 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     if (options.dm)
         dm = mesh_discontinuities(geometry, bvh, regions, shots, options, &stats, progress);
 
+    // The other ranks have given their share (cluster.h): rank 0 finishes the bake
+    if (options.cluster && options.cluster->size() > 1) {
+        result.parameters.emplace_back("ranks", std::to_string(options.cluster->size()));
+        options.cluster->add_up_sent();
+        if (options.cluster->rank() != 0) return result;
+    }
+
     // Interreflection on the imported mesh's elements
     std::optional<IndirectSolution> indirect;
     if (options.bounces != 0) indirect = interreflect(geometry, regions, options, &stats, progress);
@@ -114,7 +122,9 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     stats.vertices = result.mesh.positions.size();
     result.name = options.name;
     result.unit = scene.emittance_unit == "lm/m2" ? "lux" : "W/m2";
+    const auto distributed = std::move(result.parameters);
     result.parameters = parameters_of(options);
+    result.parameters.insert(result.parameters.end(), distributed.begin(), distributed.end());
     stats.seconds_total = seconds_since(t_start);
     return result;
 }

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "abrad/check.h"
+#include "abrad/radiosity/cluster.h"
 #include "abrad/radiosity/direct.h"
 #include "stages.h"
 
@@ -161,11 +162,62 @@ visdb::Rgb exact_at(const BakeGeometry& g, const Bvh& bvh, std::span<const std::
     return h;
 }
 
+// A split point of a region, and an exact value at a point of a region (a vertex or an edge's
+// midpoint), as the ranks exchange them.
+struct SplitPoint {
+    std::uint32_t region;
+    glm::dvec3 point;
+};
+struct Evaluated {
+    std::uint32_t region;
+    PointKey key;
+    visdb::Rgb irradiance;
+};
+
+// The regions this rank evaluates and refines this round (all of them without MPI), shared
+// over the ranks by cost: the region's vertices times the sources that light it (each
+// evaluation asks every one of them).
+std::vector<char> regions_of_rank(const Regions& regions, const RegionSources& sources,
+                                  const DiscontinuityMesh& current, const Cluster& cluster) {
+    const std::size_t nr = regions.planar.size();
+    std::vector<double> cost(nr, 1.0);
+    for (const std::uint32_t r : current.vertex_region) cost[r] += 1.0;
+    for (std::size_t r = 0; r < nr; ++r)
+        cost[r] *=
+            1.0 + static_cast<double>(sources.lights[r].size() + sources.luminaires[r].size());
+    std::vector<char> mine(nr, 0);
+    for (const std::uint32_t r : cluster.share(cost)) mine[r] = 1;
+    return mine;
+}
+
+// Every rank's split points and evaluated midpoints, per region, on every rank (a region's
+// come from the one rank that refined it, in its order).
+void exchange_refinement(Cluster& cluster, std::vector<std::vector<glm::dvec3>>& split,
+                         std::vector<std::vector<std::pair<PointKey, visdb::Rgb>>>& evaluated) {
+    std::vector<SplitPoint> points;
+    std::vector<Evaluated> values;
+    for (std::size_t r = 0; r < split.size(); ++r) {
+        for (const glm::dvec3& p : split[r]) points.push_back({static_cast<std::uint32_t>(r), p});
+        for (const auto& [key, h] : evaluated[r])
+            values.push_back({static_cast<std::uint32_t>(r), key, h});
+        split[r].clear();
+        evaluated[r].clear();
+    }
+    for (const SplitPoint& x : values_of<SplitPoint>(cluster.all_gather(as_bytes_of(points), "dm")))
+        split[x.region].push_back(x.point);
+    // In one order whatever the vertex numbering the mesher gave the region's edges
+    for (auto& list : split) std::sort(list.begin(), list.end(), lexicographically_less);
+    for (const Evaluated& x : values_of<Evaluated>(cluster.all_gather(as_bytes_of(values), "dm")))
+        evaluated[x.region].emplace_back(x.key, x.irradiance);
+}
+
 // Exact irradiance at every vertex of `out` (from the cache where known); returns the
 // number of new evaluations.
 std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                              const RegionSources& sources, double reach, IrradianceCache& cache,
-                              DiscontinuityMesh& out, ParallelProgress& progress) {
+                              const RegionSources& sources, double reach,
+                              const std::vector<char>& mine, Cluster& cluster,
+                              IrradianceCache& cache, DiscontinuityMesh& out,
+                              ParallelProgress& progress) {
     const std::size_t n = out.mesh.positions.size();
     out.irradiance.assign(n, visdb::Rgb(0.0));
     std::vector<char> fresh(n, 0);
@@ -178,21 +230,30 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
                 out.irradiance[v] = it->second;
                 continue;
             }
-            const glm::dvec3& x = out.mesh.positions[v];
-            const glm::dvec3& normal = regions.planar[out.vertex_region[v]].normal;
             const std::uint32_t r = out.vertex_region[v];
+            if (!mine[r]) continue;  // another rank's region
+            const glm::dvec3& x = out.mesh.positions[v];
+            const glm::dvec3& normal = regions.planar[r].normal;
             out.irradiance[v] =
                 exact_at(g, bvh, sources.lights[r], sources.luminaires[r], x, normal, occ, reach);
             fresh[v] = 1;
         }
     });
-    std::size_t evaluations = 0;
+    // Every rank's new values, on every rank, by region and position: the mesher may number
+    // the vertices of a region differently in another process
+    std::vector<Evaluated> here;
     for (std::size_t v = 0; v < n; ++v)
         if (fresh[v]) {
-            cache.emplace(key_of(out.vertex_region[v], out.mesh.positions[v]), out.irradiance[v]);
-            ++evaluations;
+            const std::uint32_t r = out.vertex_region[v];
+            here.push_back({r, key_of(r, out.mesh.positions[v]), out.irradiance[v]});
         }
-    return evaluations;
+    const std::vector<Evaluated> all =
+        values_of<Evaluated>(cluster.all_gather(as_bytes_of(here), "dm"));
+    for (const Evaluated& x : all) cache.emplace(x.key, x.irradiance);
+    if (cluster.size() > 1)
+        for (std::size_t v = 0; v < n; ++v)
+            out.irradiance[v] = cache.at(key_of(out.vertex_region[v], out.mesh.positions[v]));
+    return all.size();
 }
 
 // The points that split region r's edges whose midpoint's exact irradiance departs from the
@@ -239,7 +300,8 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
 std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
                    const RegionSources& sources, const std::vector<MeshedRegion>& meshed,
                    const DiscontinuityMesh& current, double min_edge, const BakeOptions& options,
-                   IrradianceCache& cache, std::uint64_t& evaluations, ParallelProgress& progress) {
+                   const std::vector<char>& mine, Cluster& cluster, IrradianceCache& cache,
+                   std::uint64_t& evaluations, ParallelProgress& progress) {
     double h_max = 0.0;
     for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
     const double floor = 1e-3 * h_max;
@@ -253,11 +315,12 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
     std::vector<std::vector<std::pair<PointKey, visdb::Rgb>>> evaluated(meshed.size());
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
         progress.add(meshed[r].triangles.size());
-        if (regions.emitter[r]) return;
+        if (regions.emitter[r] || !mine[r]) return;
         refine_region(g, bvh, regions, sources, meshed[r], static_cast<std::uint32_t>(r),
                       current.irradiance.data() + region_start[r], floor, min_edge, options, cache,
                       split[r], evaluated[r]);
     });
+    exchange_refinement(cluster, split, evaluated);
     for (const auto& list : evaluated)
         for (const auto& [key, value] : list)
             if (cache.emplace(key, value).second) ++evaluations;
@@ -295,6 +358,10 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     const DmOptions dm_options{.min_angle_deg = options.dm_min_angle, .merge_distance = tolerance};
     IrradianceCache cache;
     DiscontinuityMesh out;
+    // Every rank meshes every region (the mesher makes neighbouring regions conform); the
+    // exact evaluations, most of the work, are shared over the ranks by region (cluster.h)
+    Cluster alone;
+    Cluster& cluster = options.cluster ? *options.cluster : alone;
     for (int round = 0;; ++round) {
         // Each step reports its own work: regions meshed, vertices evaluated, triangles refined
         const std::string of_rounds = " (round " + std::to_string(round + 1) + " of at most " +
@@ -311,17 +378,18 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
         st.conformity_points = mesher.conformity_points;
         ++st.rounds;
         assemble(regions, meshed, out);
+        const std::vector<char> mine = regions_of_rank(regions, sources, out, cluster);
         {
             ParallelProgress vertices(progress, "mesh: exact irradiance at vertices" + of_rounds,
                                       out.mesh.positions.size());
-            st.exact_evaluations +=
-                evaluate_vertices(g, bvh, regions, sources, options.reach, cache, out, vertices);
+            st.exact_evaluations += evaluate_vertices(g, bvh, regions, sources, options.reach, mine,
+                                                      cluster, cache, out, vertices);
         }
         if (round >= options.refine_rounds) break;
         ParallelProgress triangles(progress, "mesh: refinement, triangles" + of_rounds,
                                    out.mesh.triangles.size());
         const std::size_t added = refine(g, bvh, regions, sources, meshed, out, min_edge, options,
-                                         cache, st.exact_evaluations, triangles);
+                                         mine, cluster, cache, st.exact_evaluations, triangles);
         st.refine_points += added;
         if (added == 0) break;
     }

@@ -12,12 +12,16 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <span>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
+#include "abrad/radiosity/cluster.h"
 #include "abrad/radiosity/cull.h"
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/exact.h"
+#include "abrad/radiosity/exact_sum.h"
 #include "abrad/radiosity/point_source.h"
 #include "stages.h"
 
@@ -357,6 +361,19 @@ void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, c
         });
 }
 
+// The triangles a luminaire shoots onto: every one, or those whose centroid is within the
+// reach (cull.h).
+std::vector<std::uint32_t> luminaire_receivers(const BakeGeometry& g, const visdb::Luminaire& lum,
+                                               double reach) {
+    std::vector<std::uint32_t> near;
+    for (std::size_t j = 0; j < g.patches.size(); ++j) {
+        const glm::dvec3 d = glm::abs(centroid(g.patches[j]) - lum.position);
+        if (reach <= 0.0 || (d.x <= reach && d.y <= reach && d.z <= reach))
+            near.push_back(static_cast<std::uint32_t>(j));
+    }
+    return near;
+}
+
 // Shoots from a luminaire as a point source: its two weighted hemicubes give each triangle
 // the flux it stops (patch irradiance); exact vertex irradiance without DM, shadow segments
 // from the point with DM.
@@ -364,13 +381,7 @@ OneLight shoot_luminaire(const BakeGeometry& g, const Regions& regions, const Bv
                          const visdb::Luminaire& lum, const BakeOptions& options) {
     OneLight out;
     const auto t0 = Clock::now();
-    // Receivers: every triangle, or those whose centroid is within the reach (cull.h)
-    for (std::size_t j = 0; j < g.patches.size(); ++j) {
-        const glm::dvec3 d = glm::abs(centroid(g.patches[j]) - lum.position);
-        if (options.reach <= 0.0 ||
-            (d.x <= options.reach && d.y <= options.reach && d.z <= options.reach))
-            out.near.push_back(static_cast<std::uint32_t>(j));
-    }
+    out.near = luminaire_receivers(g, lum, options.reach);
     out.near_vertices = vertices_of(out.near, g.mesh.triangles);
     ShootOptions so{.method = options.method, .subpixels = options.subpixels, .occlusion = false};
     so.only = &out.near;
@@ -447,6 +458,107 @@ std::uint64_t keep_strong(std::vector<LitSegment>& lit, LightShots& shots) {
     return dropped;
 }
 
+// One (triangle, source) pair: the source's hemicube gave the triangle some light.
+struct SourceOf {
+    std::uint32_t triangle, source;
+};
+
+// The statistics of the sources' shots.
+struct SourceStats {
+    visdb::ShootStats shoot;
+    visdb::ExactShadeStats exact;
+    visdb::ShadowEdgeStats shadow;
+};
+
+// What a rank's sources add up to, before the ranks combine their parts.
+struct SourceSums {
+    SourceSums(std::size_t triangles, std::size_t vertices)
+        : triangle(3 * triangles), vertex(3 * vertices) {}
+    void add_triangle(std::uint32_t j, const visdb::Rgb& h) {
+        for (int c = 0; c < 3; ++c) triangle.add(3 * std::size_t{j} + c, h[c]);
+    }
+    void add_vertex(std::uint32_t v, const visdb::Rgb& h) {
+        for (int c = 0; c < 3; ++c) vertex.add(3 * std::size_t{v} + c, h[c]);
+    }
+    ExactSums triangle, vertex;  // patch irradiance, exact vertex irradiance (RGB)
+    std::vector<LitSegment> lit;
+    std::vector<SourceOf> lights_of, luminaires_of;
+    SourceStats stats;
+};
+
+// The sources a rank shoots: indices into g.lights and g.luminaires, ascending.
+struct SourceShare {
+    std::vector<std::uint32_t> lights, luminaires;
+};
+
+// The sources this rank shoots, shared over the cluster's ranks by cost: a source's cost is
+// the number of triangles it may reach (its hemicube draws them; its exact shading and shadow
+// edges visit them and their vertices), twice for a luminaire (two hemicubes), plus one.
+SourceShare share_sources(const BakeGeometry& g, const Bvh& bvh, const BakeOptions& options,
+                          const Cluster& cluster) {
+    const std::size_t nl = g.lights.size(), nk = g.luminaires.size();
+    std::vector<double> cost(nl + nk, 1.0);
+    if (cluster.size() > 1) {
+        tbb::parallel_for(std::size_t{0}, nl, [&](std::size_t li) {
+            cost[li] += static_cast<double>(
+                light_candidates(bvh, g.patches, g.lights[li], options.reach).size());
+        });
+        for (std::size_t k = 0; k < nk; ++k)
+            cost[nl + k] +=
+                2.0 *
+                static_cast<double>(luminaire_receivers(g, g.luminaires[k], options.reach).size());
+    }
+    SourceShare out;
+    for (const std::uint32_t i : cluster.share(cost))
+        (i < nl ? out.lights : out.luminaires)
+            .push_back(i < nl ? i : i - static_cast<std::uint32_t>(nl));
+    return out;
+}
+
+// Per triangle, the sources of `pairs`, ascending.
+void sources_per_triangle(std::span<const std::byte> pairs,
+                          std::vector<std::vector<std::uint32_t>>& out) {
+    for (const SourceOf& p : values_of<SourceOf>(pairs)) out[p.triangle].push_back(p.source);
+    for (auto& list : out) std::sort(list.begin(), list.end());
+}
+
+// Every rank's sums added up (exactly), its segments and pairs gathered, into `shots` on every
+// rank (nt triangles, nv vertices); returns the statistics summed over the ranks.
+SourceStats combine(Cluster& cluster, SourceSums& sums, std::size_t nt, std::size_t nv, bool dm,
+                    LightShots& shots) {
+    static_assert(std::is_trivially_copyable_v<LitSegment> &&
+                  std::is_trivially_copyable_v<SourceStats>);
+    cluster.sum(sums.triangle.limbs(), "shoot");
+    cluster.sum(sums.vertex.limbs(), "shoot");
+    shots.triangle_irradiance.assign(nt, visdb::Rgb(0.0));
+    for (std::size_t j = 0; j < nt; ++j)
+        for (int c = 0; c < 3; ++c)
+            shots.triangle_irradiance[j][c] = sums.triangle.value(3 * j + c);
+    shots.vertex_irradiance.assign(nv, visdb::Rgb(0.0));
+    if (sums.vertex.size() > 0)
+        for (std::size_t v = 0; v < nv; ++v)
+            for (int c = 0; c < 3; ++c)
+                shots.vertex_irradiance[v][c] = sums.vertex.value(3 * v + c);
+    sums.lit = values_of<LitSegment>(cluster.all_gather(as_bytes_of(sums.lit), "shoot"));
+    shots.lights_of_triangle.resize(dm ? nt : 0);
+    shots.luminaires_of_triangle.resize(dm ? nt : 0);
+    if (dm) {
+        sources_per_triangle(cluster.all_gather(as_bytes_of(sums.lights_of), "shoot"),
+                             shots.lights_of_triangle);
+        sources_per_triangle(cluster.all_gather(as_bytes_of(sums.luminaires_of), "shoot"),
+                             shots.luminaires_of_triangle);
+    }
+    const std::vector<SourceStats> parts = values_of<SourceStats>(
+        cluster.all_gather(as_bytes_of(std::vector<SourceStats>{sums.stats}), "shoot"));
+    SourceStats total;
+    for (const SourceStats& p : parts) {
+        total.shoot += p.shoot;
+        total.exact += p.exact;
+        total.shadow += p.shadow;
+    }
+    return total;
+}
+
 }  // namespace
 
 LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
@@ -455,56 +567,60 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     const std::size_t nt = g.mesh.triangles.size(), nv = g.mesh.positions.size();
     const bool exact_vertices = options.shading == Shading::Exact && !options.dm;
     LightShots shots;
-    shots.triangle_irradiance.assign(nt, visdb::Rgb(0.0));
-    shots.vertex_irradiance.assign(nv, visdb::Rgb(0.0));
     shots.segments.resize(options.dm ? nt : 0);
-    shots.lights_of_triangle.resize(options.dm ? nt : 0);
-    shots.luminaires_of_triangle.resize(options.dm ? nt : 0);
-    visdb::ShootStats shoot_stats;
-    visdb::ExactShadeStats exact_stats;
-    visdb::ShadowEdgeStats shadow_stats;
+    // The sums over the sources are exact (exact_sum.h): the same bits whatever order the
+    // sources finish in and however many ranks share them
+    SourceSums sums(nt, exact_vertices ? nv : 0);
     std::mutex accumulate;
     std::size_t done = 0;
-    std::vector<LitSegment> lit;
     const std::vector<EmitterEdges> emitter =
         options.dm ? emitter_edges(g, regions) : std::vector<EmitterEdges>(g.lights.size());
 
-    const std::size_t sources = g.lights.size() + g.luminaires.size();
+    // The sources this rank shoots (all of them without MPI), shared by their cost
+    Cluster alone;
+    Cluster& cluster = options.cluster ? *options.cluster : alone;
+    const SourceShare mine = share_sources(g, bvh, options, cluster);
+    const std::size_t sources = mine.lights.size() + mine.luminaires.size();
     // Adds one source's shot to the totals (under the lock)
     // (`light`: an area light's triangle, whose hemicube from the centroid may miss a receiver
     // it lights; a luminaire's two hemicubes see every direction)
-    auto add = [&](const OneLight& one, std::vector<std::vector<std::uint32_t>>& sources_of,
-                   std::uint32_t source, const Patch* light) {
+    auto add = [&](const OneLight& one, std::vector<SourceOf>& sources_of, std::uint32_t source,
+                   const Patch* light) {
         // The source's receivers and their vertices are the only non-zero entries
-        for (const std::uint32_t j : one.near) shots.triangle_irradiance[j] += one.triangle[j];
+        for (const std::uint32_t j : one.near) sums.add_triangle(j, one.triangle[j]);
         if (exact_vertices)
-            for (const std::uint32_t v : one.near_vertices)
-                shots.vertex_irradiance[v] += one.vertex[v];
-        lit.insert(lit.end(), one.segments.begin(), one.segments.end());
+            for (const std::uint32_t v : one.near_vertices) sums.add_vertex(v, one.vertex[v]);
+        sums.lit.insert(sums.lit.end(), one.segments.begin(), one.segments.end());
         if (options.dm)
             for (const std::uint32_t j : one.near)
                 if (visdb::any_positive(one.triangle[j]) ||
                     (light && unseen_from_centroid(*light, g.patches[j])))
-                    sources_of[j].push_back(source);
-        shoot_stats += one.shoot;
-        exact_stats += one.exact;
-        shadow_stats += one.shadow;
+                    sources_of.push_back({j, source});
+        sums.stats.shoot += one.shoot;
+        sums.stats.exact += one.exact;
+        sums.stats.shadow += one.shadow;
         ++done;
         if (progress) progress("shoot", done, sources);
     };
     if (progress) progress("shoot", 0, sources);
-    tbb::parallel_for(std::size_t{0}, g.lights.size(), [&](std::size_t li) {
-        const std::uint32_t l = g.lights[li];
+    tbb::parallel_for(std::size_t{0}, mine.lights.size(), [&](std::size_t i) {
+        const std::uint32_t li = mine.lights[i], l = g.lights[li];
         const OneLight one = shoot_one(g, regions, bvh, hemicube, l, emitter[li], options);
         std::lock_guard lock(accumulate);
-        add(one, shots.lights_of_triangle, l, &g.patches[l]);
+        add(one, sums.lights_of, l, &g.patches[l]);
     });
     // Luminaires one after the other (each shades and casts in parallel)
-    for (std::size_t k = 0; k < g.luminaires.size(); ++k) {
+    for (const std::uint32_t k : mine.luminaires) {
         const OneLight one = shoot_luminaire(g, regions, bvh, g.luminaires[k], options);
-        add(one, shots.luminaires_of_triangle, static_cast<std::uint32_t>(k), nullptr);
+        add(one, sums.luminaires_of, k, nullptr);
     }
 
+    // Every rank's part, added up on every rank
+    const SourceStats totals = combine(cluster, sums, nt, nv, options.dm, shots);
+    const visdb::ShootStats& shoot_stats = totals.shoot;
+    const visdb::ExactShadeStats& exact_stats = totals.exact;
+    visdb::ShadowEdgeStats shadow_stats = totals.shadow;
+    std::vector<LitSegment>& lit = sums.lit;
     if (options.dm) shadow_stats.segments_weak = keep_strong(lit, shots);
 
     if (stats) {
@@ -521,8 +637,9 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
         stats->light_triangles = g.lights.size();
         stats->light_area_m2 = light_area;
         stats->shoot = shoot_stats;
+        const std::size_t all_sources = g.lights.size() + g.luminaires.size();
         stats->mean_form_factor_sum =
-            sources > 0 ? shoot_stats.form_factor_sum / static_cast<double>(sources) : 0.0;
+            all_sources > 0 ? shoot_stats.form_factor_sum / static_cast<double>(all_sources) : 0.0;
         stats->emitted_power_w = emitted;
         stats->received_power_w = received;
         if (options.dm) {

@@ -10,6 +10,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
+#include <iostream>
+#include <utility>
 
 #include "abrad/convert/import.h"
 #include "abrad/export/exposure.h"
@@ -37,6 +39,25 @@ void remove_stale_staging(const std::filesystem::path& dir, const std::string& p
             std::from_chars(digits.data(), digits.data() + digits.size(), pid);
         if (error != std::errc() || end != digits.data() + digits.size() || pid <= 0) continue;
         if (::kill(pid, 0) != 0 && errno == ESRCH) std::filesystem::remove_all(entry.path(), ec);
+    }
+}
+
+int report_failure(const char* command, const std::string& prefix, std::exception_ptr error) {
+    auto fail = [&](const char* what, int status) {
+        std::cerr << "abrad " << command << ": " << prefix << what << "\n";
+        return status;
+    };
+    try {
+        std::rethrow_exception(std::move(error));
+    } catch (const CommandError& e) {
+        return fail(e.message.c_str(), e.status);
+    } catch (const visdb::StoreError& e) {
+        return fail(e.what(),
+                    e.kind() == visdb::StoreError::Kind::Failure ? kExitFailure : kExitBadInput);
+    } catch (const radiosity::InputError& e) {  // settings or a scene that cannot be baked
+        return fail(e.what(), kExitBadInput);
+    } catch (const std::exception& e) {  // ExportError, filesystem errors, bad_alloc...
+        return fail(e.what(), kExitFailure);
     }
 }
 

@@ -5,6 +5,7 @@
 // render), each implemented in its subcommand's file.
 
 #include <chrono>
+#include <exception>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -39,6 +40,12 @@ struct CommandError {
 [[noreturn]] void bad_input(const std::string& message);
 /// Throws CommandError{kExitFailure, message}.
 [[noreturn]] void failure(const std::string& message);
+
+/// Writes the error `error` (thrown by a subcommand) to stderr as "abrad <command>: <prefix>
+/// <message>" and returns its exit status: a CommandError's own, 1 for a failed or locked
+/// database, 2 for a malformed one and for a scene or settings that cannot be baked, 1 for
+/// anything else.
+int report_failure(const char* command, const std::string& prefix, std::exception_ptr error);
 
 /// What a subcommand's run function gets: its own parsed app, and the whole command line.
 struct Invocation {

@@ -14,6 +14,7 @@
 
 #include "abrad/atomic_file.h"
 #include "abrad/export/image.h"
+#include "abrad/radiosity/cluster.h"
 #include "abrad/radiosity/grid.h"
 #include "cli_common.h"
 
@@ -264,9 +265,47 @@ void add_bake(CLI::App& app) {
     add_bake_options(app, s.bake);
 }
 
+namespace {
+
+// abrad bake as one rank of an MPI job (mpirun, srun; docs/design.md#the-distributed-bake):
+// every rank reads the database (on a file system all the nodes share) and shoots its share of
+// the lights; rank 0 finishes the bake and stores it in its one transaction. A rank that fails
+// ends the whole job with its exit status (MPI_Abort), naming itself, so that no rank waits
+// for it; when a rank dies, mpirun terminates the others and rank 0 says nothing was stored.
+int bake_as_rank(const std::string& db, radiosity::BakeOptions options,
+                 const std::string& convergence_csv) {
+    radiosity::Cluster cluster = radiosity::Cluster::join(
+        "abrad bake: rank 0 was terminated by the launcher (another rank failed; mpirun names "
+        "it): the bake is not stored, " +
+        db + " is as it was\n");
+    options.cluster = &cluster;
+    try {
+        if (cluster.rank() == 0) {
+            bake_into(db, options, convergence_csv);
+            std::string sent;
+            for (const auto& [stage, bytes] : cluster.sent_by_all())
+                sent += " " + stage + " " + std::to_string(bytes);
+            std::cerr << "abrad bake: shared over " << cluster.size()
+                      << " ranks; bytes the ranks sent, per stage:" << sent << "\n";
+        } else {
+            const visdb::Scene scene = open_db(db, visdb::OpenMode::ReadOnly).load_scene();
+            radiosity::bake(scene, options);
+        }
+    } catch (...) {
+        const std::string rank = "rank " + std::to_string(cluster.rank()) + ": ";
+        cluster.abort(report_failure("bake", rank, std::current_exception()));
+    }
+    return kExitOk;
+}
+
+}  // namespace
+
 int run_bake(const Invocation& call) {
     const State& s = state();
-    bake_into(s.db, to_options(s.bake, call.app), s.bake.convergence_csv);
+    const radiosity::BakeOptions options = to_options(s.bake, call.app);
+    if (radiosity::Cluster::launched_as_ranks())
+        return bake_as_rank(s.db, options, s.bake.convergence_csv);
+    bake_into(s.db, options, s.bake.convergence_csv);
     return kExitOk;
 }
 

@@ -42,6 +42,8 @@
 
 namespace abrad::radiosity {
 
+class Cluster;
+
 /// How vertex shades are computed.
 enum class Shading {
     Exact,  ///< exact direct irradiance at each vertex, occluders from the fragment lists
@@ -89,6 +91,10 @@ struct BakeOptions {
     /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room) and at most 0.05 m, so that a
     /// small model meshes as it would in metres and a building as finely as a room.
     double refine_min_edge = 0.0;
+    /// When set, the MPI ranks the bake's work is shared with (cluster.h): every rank calls
+    /// `bake` with the same scene and options; rank 0 returns the bake, the others an empty
+    /// one once their share is done. Null: this process alone.
+    Cluster* cluster = nullptr;
 };
 
 /// Checks options (resolution even in [2, 4096], subpixels 4/8/16, bounces in [-1, 1000],
