@@ -203,9 +203,9 @@ Image read_image(const fs::path& path) {
 void require_image_support() { oiio::api(); }
 
 std::optional<ImageHeader> read_image_header(const fs::path& path) {
-    oiio::Header h;
+    ImageHeader h;
     if (!oiio::api().header(path.string(), h)) return std::nullopt;
-    return ImageHeader{h.width, h.height, h.depth, h.channels, h.bytes_per_channel};
+    return h;
 }
 
 glm::vec3 false_colour(double t) {

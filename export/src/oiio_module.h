@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "abrad/export/image.h"
+
 namespace abrad::exporter::oiio {
 
 /// Pixels as OpenImageIO read them: every channel, as float, row-major, top row first.
@@ -30,13 +32,7 @@ struct Pixels {
 };
 
 /// What an image file's header claims, before any pixel is read.
-struct Header {
-    int width = 0;
-    int height = 0;
-    int depth = 1;
-    int channels = 0;
-    std::size_t bytes_per_channel = 0;
-};
+using Header = ImageHeader;
 
 /// How an image is stored by `encode`.
 enum class Storage {
