@@ -102,10 +102,11 @@ const oiio::Api kApi{oiio::kAbi, sizeof(oiio::Api), encode, read, render_text, c
 }  // namespace
 
 extern "C" const abrad::exporter::oiio::Api* abrad_oiio_api() {
-    // The images abrad writes and compares are small: OpenImageIO's own thread pool is not
-    // started (its threads, left running in a module loaded with dlopen, crashed
-    // LeakSanitizer's exit-time scan in the sanitizer build)
-    static const bool single = OIIO::attribute("threads", 1);
+    // The images abrad writes and compares are small: neither OpenImageIO's thread pool nor
+    // OpenEXR's is started (their threads, left running in a module loaded with dlopen,
+    // crashed LeakSanitizer's exit-time scan in the sanitizer build; OpenEXR's pool follows
+    // "threads" unless "exr_threads" is -1)
+    static const bool single = OIIO::attribute("threads", 1) && OIIO::attribute("exr_threads", -1);
     (void)single;
     return &kApi;
 }
