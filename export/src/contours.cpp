@@ -11,8 +11,17 @@
 namespace abrad::exporter {
 
 std::string IsoSegment::to_string() const {
-    return "(" + std::to_string(a.i) + " " + std::to_string(a.j) + ")-(" + std::to_string(b.i) +
-           " " + std::to_string(b.j) + ")";
+    // Appended piece by piece ("(" + std::string made GCC 12 warn -Wrestrict at -O3)
+    std::string out = "(";
+    out += std::to_string(a.i);
+    out += ' ';
+    out += std::to_string(a.j);
+    out += ")-(";
+    out += std::to_string(b.i);
+    out += ' ';
+    out += std::to_string(b.j);
+    out += ')';
+    return out;
 }
 
 namespace {
