@@ -188,13 +188,19 @@ inline void sample_range(double lo, double hi, int count, int& c0, int& c1) {
     c1 = static_cast<int>(std::clamp(std::ceil(hi - 0.5), 0.0, static_cast<double>(count)));
 }
 
-// Sample-row spans of a convex polygon over one pixel row strip [y0, y0 + 1], N rows.
+// Sample-row spans of a convex polygon over one pixel row strip [y0, y0 + 1], N rows. Sample
+// g of a row (counted across the whole face, N per pixel) lies at x = (g + 0.5) / N and is
+// covered when xl <= x < xr, so a row covers the samples [lo, hi): whole numbers, so that a
+// pixel's mask, its sample count and its samples' centroid are integer arithmetic, and two
+// polygons sharing an edge split its samples exactly (the same x for both, Edge).
 template <int N>
 struct RowSpans {
-    double xl[N], xr[N];
+    long long lo[N]{}, hi[N]{};
     bool has[N];
-    // As span_at at each sample row (the same arithmetic, so the same bits), edge by edge
+    // Pixel columns [full_lo, full_hi) are covered by every sample of the strip
+    long long full_lo = 0, full_hi = 0;
     void compute(const Poly2& p, double y0) {
+        double xl[N], xr[N];
         for (int k = 0; k < N; ++k) {
             xl[k] = std::numeric_limits<double>::infinity();
             xr[k] = -xl[k];
@@ -210,20 +216,44 @@ struct RowSpans {
                 }
             }
         }
-        for (int k = 0; k < N; ++k) has[k] = xl[k] < xr[k];
+        full_lo = std::numeric_limits<long long>::min();
+        full_hi = std::numeric_limits<long long>::max();
+        for (int k = 0; k < N; ++k) {
+            has[k] = xl[k] < xr[k];
+            if (!has[k]) {
+                full_hi = full_lo;
+                continue;
+            }
+            lo[k] = static_cast<long long>(std::ceil(xl[k] * N - 0.5));
+            hi[k] = static_cast<long long>(std::ceil(xr[k] * N - 0.5));
+            full_lo = std::max(full_lo, (lo[k] + N - 1) / N);  // lo >= 0 (clamped x)
+            full_hi = std::min(full_hi, hi[k] / N);
+        }
     }
-    // Coverage mask of column [i, i+1]; `sx`, `sy` accumulate the covered sample positions.
-    Mask<N> mask(int i, double y0, double& sx, double& sy) const {
+    // Coverage mask of column [i, i+1]; `count` samples, whose positions sum to
+    // (i + sum_x / (2N), y0 + sum_y / (2N)) times `count`.
+    Mask<N> mask(int i, long long& count, long long& sum_x, long long& sum_y) const {
         Mask<N> m;
+        count = sum_x = sum_y = 0;
+        if (i >= full_lo && i < full_hi) {
+            m = Mask<N>::full();
+            count = static_cast<long long>(N) * N;
+            sum_x = sum_y = count * N;  // every sample: centroid at the pixel's centre
+            return m;
+        }
+        const long long base = static_cast<long long>(i) * N;
         for (int k = 0; k < N; ++k) {
             if (!has[k]) continue;
-            int c0, c1;
-            sample_range((xl[k] - i) * N, (xr[k] - i) * N, N, c0, c1);
+            const int c0 =
+                static_cast<int>(std::clamp(lo[k] - base, 0LL, static_cast<long long>(N)));
+            const int c1 =
+                static_cast<int>(std::clamp(hi[k] - base, 0LL, static_cast<long long>(N)));
             if (c1 > c0) {
                 m.set_row(k, c0, c1);
-                const double n = c1 - c0;
-                sx += n * (i + (c0 + c1) * 0.5 / N);
-                sy += n * (y0 + (k + 0.5) / N);
+                const long long n = c1 - c0;
+                count += n;
+                sum_x += n * (c0 + c1);
+                sum_y += n * (2 * k + 1);
             }
         }
         return m;
@@ -308,7 +338,9 @@ class LocalIds {
 
 template <int S>
 void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
-                       std::uint32_t patch, FragmentBuffer<S>& out, std::size_t& undersampled) {
+                       std::uint32_t patch, FragmentBuffer<S>& out, std::size_t& undersampled,
+                       const float* closed_depth) {
+    const auto dmin = static_cast<float>(plane.fallback);
     const int W = hc.width(face), H = hc.height(face);
     const auto [ymin, ymax] = y_extent(p);
     const int j0 = std::max(0, static_cast<int>(std::floor(ymin)));
@@ -339,8 +371,12 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
         coarse.compute(p, y0);
         bool fine_ready = false;
         for (int i = i0; i < i1; ++i) {
-            double sx = 0.0, sy = 0.0;
-            const Mask<S> mask = coarse.mask(i, y0, sx, sy);
+            const std::size_t pixel = base + static_cast<std::size_t>(j * W + i);
+            // Behind an opaque cover nearer than the whole piece: PropFF gives it nothing
+            if (closed_depth && closed_depth[pixel] < dmin) continue;
+            long long count, sum_x, sum_y;
+            const Mask<S> mask = coarse.mask(i, count, sum_x, sum_y);
+            double sx, sy;
             std::uint32_t fine_index = kNoPatch;
             if (mask.empty()) {
                 // Clip to the pixel: touching with positive area but no sample = undersampled
@@ -363,8 +399,8 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
                     fine.compute(p, y0);
                     fine_ready = true;
                 }
-                double fx = 0.0, fy = 0.0;
-                Mask<2 * S> fm = fine.mask(i, y0, fx, fy);
+                long long fine_count, fine_x, fine_y;
+                Mask<2 * S> fm = fine.mask(i, fine_count, fine_x, fine_y);
                 // Centroid of the piece inside the pixel: depth, and the sample of last resort
                 glm::dvec2 c(0.0);
                 for (const auto& v : px) c += v;
@@ -380,14 +416,13 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
                 sx = c.x;
                 sy = c.y;
             } else {
-                const double n = mask.count();
-                sx /= n;
-                sy /= n;
+                const double scale = 1.0 / (2.0 * S * static_cast<double>(count));
+                sx = i + static_cast<double>(sum_x) * scale;
+                sy = y0 + static_cast<double>(sum_y) * scale;
             }
             const double depth = plane.depth(hc.proj_a(sx), hc.proj_b(face, sy));
-            out.fragments.push_back(
-                {static_cast<std::uint32_t>(base + static_cast<std::size_t>(j * W + i)), patch,
-                 patch, static_cast<float>(depth), fine_index, mask});
+            out.fragments.push_back({static_cast<std::uint32_t>(pixel), patch, patch,
+                                     static_cast<float>(depth), fine_index, mask});
         }
     }
 }
@@ -582,6 +617,9 @@ class ClosedPixels {
         return true;
     }
 
+    // Per pixel, the depth behind which it is closed (infinity while open).
+    const float* depths() const { return m_closed_depth.data(); }
+
     // Adds the coverage of an opaque patch's fragments [first, end).
     void add(const FragmentBuffer<S>& buffer, std::size_t first) {
         const Mask<S> full = Mask<S>::full();
@@ -703,7 +741,7 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
                 rasterize_points(hc, face, p, plane, local_id, buffer);
             else
                 rasterize_abuffer<S>(hc, face, p, plane, local_id, buffer,
-                                     result.undersampled_pixels);
+                                     result.undersampled_pixels, cull ? closed.depths() : nullptr);
             if (options.targets) retarget(id, face, first);
             if (opaque) closed.add(buffer, first);
         });
