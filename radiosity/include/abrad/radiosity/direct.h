@@ -60,7 +60,7 @@ struct OpeningSample {
 /// (LuminousOpening::size) is lit by the opening, not by its centre.
 inline constexpr double kFiveTimes = 5.0;
 /// At most this many cells along each side (rectangle) or rings (disc) of an opening.
-inline constexpr int kMaxOpeningCells = 32;
+inline constexpr int kMaxOpeningCells = 16;
 
 /// The quadrature points of a flat luminous opening (a rectangle, length along axis_x by
 /// width along axis_y, or a disc or ellipse of diameters length by width, in the plane of
