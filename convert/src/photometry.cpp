@@ -728,6 +728,18 @@ PhotometricFile read_photometric_file(const std::filesystem::path& path) {
     return read_photometric_text(bytes, name);
 }
 
+double PhotometricFile::tilt_multiplier(double tilt_degrees) const {
+    const std::vector<double>& a = tilt_angles;
+    if (a.empty()) return 1.0;
+    if (tilt_degrees <= a.front()) return tilt_factors.front();
+    if (tilt_degrees >= a.back()) return tilt_factors.back();
+    // The last angle not above the tilt: a[i] <= tilt < a[i + 1] (angles ascend, read_angles)
+    const auto i = static_cast<std::size_t>(std::upper_bound(a.begin(), a.end(), tilt_degrees) -
+                                            a.begin() - 1);
+    const double t = (tilt_degrees - a[i]) / (a[i + 1] - a[i]);
+    return (1.0 - t) * tilt_factors[i] + t * tilt_factors[i + 1];
+}
+
 std::string PhotometricFile::flux_report() const {
     const double phi = flux();
     std::string s = "web " + num(phi) + " lm";

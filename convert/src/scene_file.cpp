@@ -320,11 +320,24 @@ Emission read_emission(const TableReader& reader, const std::string& section) {
     return e;
 }
 
+/// `group`: a light group's name (not empty, no ',' or '=': light scenes name groups as
+/// "NAME=FACTOR,..."); nullopt when absent.
+std::optional<std::string> read_group(const TableReader& reader, const std::string& section) {
+    auto group = reader.string("group");
+    if (group && (group->empty() || group->find_first_of(",=") != std::string::npos)) {
+        reader.fail(reader.line("group"), "'group' in " + section +
+                                              " must be a non-empty name without ',' or '=', "
+                                              "got " +
+                                              in_quotes(*group));
+    }
+    return group;
+}
+
 SceneRule read_rule(const std::string& file, const toml::table& table) {
     const std::string section = "[[rule]]";
-    const TableReader reader(
-        file, table, section,
-        {"object", "layer", "material", "reflectance", "opacity", "emittance", "flux", "color"});
+    const TableReader reader(file, table, section,
+                             {"object", "layer", "material", "reflectance", "opacity", "emittance",
+                              "flux", "color", "group"});
     SceneRule rule;
     rule.line = reader.line();
     rule.match = read_match(reader);
@@ -342,6 +355,11 @@ SceneRule read_rule(const std::string& file, const toml::table& table) {
     rule.emittance = e.emittance;
     rule.flux = e.flux;
     rule.color = e.color;
+    rule.group = read_group(reader, section);
+    if (rule.group && !rule.emittance && !rule.flux) {
+        reader.fail(reader.line("group"),
+                    "'group' in " + section + " needs 'emittance' or 'flux' (a light group)");
+    }
     if (!rule.reflectance && !rule.opacity && !rule.emittance && !rule.flux) {
         reader.fail(rule.line,
                     section + " sets nothing: give reflectance, opacity, emittance or flux");
@@ -354,7 +372,7 @@ void read_emitter(const std::string& file, const toml::table& table, SceneFile& 
     const std::string section = "[[emitter]]";
     const TableReader reader(file, table, section,
                              {"object", "layer", "material", "name", "center", "size", "normal",
-                              "axis", "emittance", "flux", "color"});
+                              "axis", "emittance", "flux", "color", "group"});
     const std::size_t line = reader.line();
     const SurfaceMatch match = read_match(reader);
     const Emission e = read_emission(reader, section);
@@ -375,6 +393,7 @@ void read_emitter(const std::string& file, const toml::table& table, SceneFile& 
         rule.emittance = e.emittance;
         rule.flux = e.flux;
         rule.color = e.color;
+        rule.group = read_group(reader, section);
         scene.rules.push_back(rule);
         return;
     }
@@ -395,6 +414,7 @@ void read_emitter(const std::string& file, const toml::table& table, SceneFile& 
     }
     SceneRectangle rect;
     rect.line = line;
+    rect.group = read_group(reader, section).value_or("");
     rect.name = *reader.string("name");
     if (rect.name.empty()) reader.fail(reader.line("name"), reader.name("name") + " is empty");
     for (const SceneRectangle& other : scene.rectangles) {
@@ -502,7 +522,7 @@ void read_luminaire(const std::string& file, const toml::table& table, bool allo
     const TableReader reader(
         file, table, section,
         {"file", "name", "position", "rotation", "target", "count", "step", "flux_scale",
-         "maintenance_factor", "color", "opening", "opening_size"});
+         "maintenance_factor", "color", "opening", "opening_size", "group"});
     const std::size_t line = reader.line();
     for (const char* key : {"file", "position"}) {
         if (!reader.has(key)) reader.fail(line, section + " needs '" + key + "'");
@@ -550,6 +570,7 @@ void read_luminaire(const std::string& file, const toml::table& table, bool allo
         l.maintenance_factor = *m;
     }
     l.color = read_color(reader, section);
+    l.group = read_group(reader, section).value_or("");
 
     // The photometric file, inside the scene file's folder
     const std::filesystem::path scene_path(file);
@@ -561,6 +582,13 @@ void read_luminaire(const std::string& file, const toml::table& table, bool allo
                                        "photometric file");
     }
     const PhotometricFile photometry = read_photometric_file(resolved);
+    // TILT=INCLUDE: the lamp-tilt multiplier at the luminaire's tilt as placed
+    l.tilt_factor = photometry.tilt_multiplier(l.tilt_degrees());
+    if (!(l.tilt_factor > 0.0)) {
+        reader.fail(line, section + " tilted " + fmt(l.tilt_degrees()) +
+                              " degrees gives no light: " + ref +
+                              "'s tilt table gives the factor 0 there");
+    }
     l.opening = read_opening(reader, photometry.opening);
     l.file = resolved.string();
     l.checksum = photometry.checksum;
@@ -694,6 +722,7 @@ struct SurfaceOverride {
     std::optional<visdb::Rgb> reflectance;
     std::optional<double> opacity;
     std::optional<visdb::Rgb> emittance;
+    std::optional<std::string> group;
     std::size_t line = 0;  ///< the last rule that set something
 };
 
@@ -702,6 +731,7 @@ visdb::Material overridden(const visdb::Material& m, const SurfaceOverride& o) {
     if (o.reflectance) r.reflectance = *o.reflectance;
     if (o.opacity) r.opacity = *o.opacity;
     if (o.emittance) r.emittance = *o.emittance;
+    if (o.group) r.group = *o.group;
     return r;
 }
 
@@ -715,7 +745,7 @@ bool same_properties(const visdb::Material& a, const visdb::Material& b) {
         return true;
     };
     return a.reflectance == b.reflectance && close(a.emittance, b.emittance) &&
-           a.opacity == b.opacity;
+           a.opacity == b.opacity && a.group == b.group;
 }
 
 /// `name`, or "name (2)", "name (3)"... when taken; records the result as taken.
@@ -758,6 +788,10 @@ void add_luminaires(const SceneFile& file, visdb::Scene& scene, const Note& note
                          (n > 1 ? " and " + std::to_string(n - 1) + " more" : std::string()) +
                          ": " + l.luminaire.file + ": " + l.flux_report + "; placed " +
                          fmt(l.luminaire.flux()) + " lm each (scale " + fmt(l.luminaire.scale()) +
+                         (l.luminaire.tilt_factor != 1.0
+                              ? ", lamp tilt factor " + fmt(l.luminaire.tilt_factor) + " at " +
+                                    fmt(l.luminaire.tilt_degrees()) + " degrees"
+                              : std::string()) +
                          ")");
     }
 }
@@ -873,7 +907,8 @@ std::string SceneLuminaire::to_string() const {
     return "luminaire line " + std::to_string(line) + ": " + in_quotes(l.name) + " " + l.file +
            " at " + fmt(l.position) + " nadir toward " + fmt(-l.axis_z) + " C0 along " +
            fmt(l.axis_x) + " scale " + fmt(l.flux_scale) + " x " + fmt(l.maintenance_factor) +
-           " opening " + visdb::to_string(l.opening.shape) + "; " + flux_report;
+           " x tilt " + fmt(l.tilt_factor) + " opening " + visdb::to_string(l.opening.shape) +
+           "; " + flux_report;
 }
 
 std::string SceneFileReport::to_string() const {
@@ -1180,6 +1215,7 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
             if (rule.reflectance) o.reflectance = rule.reflectance;
             if (rule.opacity) o.opacity = rule.opacity;
             if (rule.emittance) o.emittance = rule.emittance;
+            if (rule.group) o.group = rule.group;
             if (rule.flux)
                 o.emittance = (*rule.flux / luminaire_area[scene.surfaces[i].name]) * rule.color;
             o.line = rule.line;
@@ -1313,6 +1349,7 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
         m.reflectance = visdb::Rgb(0.0);
         m.opacity = 1.0;
         m.emittance = rect.exitance();
+        m.group = rect.group;
         visdb::Surface s;
         s.name = rect.name;
         s.material = static_cast<std::uint32_t>(materials.size());

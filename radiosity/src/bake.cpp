@@ -3,6 +3,7 @@
 
 #include "abrad/radiosity/bake.h"
 
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -13,6 +14,8 @@
 #include <vector>
 
 #include "abrad/radiosity/cluster.h"
+#include "abrad/radiosity/direct.h"
+#include "abrad/visdb/light_scene.h"
 #include "abrad/visdb/material_check.h"
 #include "stages.h"
 
@@ -62,6 +65,113 @@ std::vector<std::uint32_t> vertex_regions(const BakeGeometry& g, const Regions& 
     return out;
 }
 
+// The light group of each triangle of `g` (its material's; "" for a triangle that emits
+// nothing).
+std::vector<std::string> triangle_groups(const visdb::Scene& scene, const BakeGeometry& g) {
+    std::vector<std::string> out(g.mesh.triangles.size());
+    for (const std::uint32_t t : g.lights)
+        out[t] = visdb::light_group(
+            scene.materials[scene.surfaces[g.mesh.triangle_surface[t]].material]);
+    return out;
+}
+
+// `g` with the lights of `group` only: the others' triangles emit nothing (they stay
+// reflectors, as in a bake of a scene without them) and the others' luminaires are gone.
+BakeGeometry restrict_to_group(BakeGeometry g, const std::vector<std::string>& triangle_group,
+                               const std::string& group) {
+    std::vector<std::uint32_t> lights;
+    for (const std::uint32_t t : g.lights) {
+        if (triangle_group[t] == group) {
+            lights.push_back(t);
+        } else {
+            g.emittance[t] = visdb::Rgb(0.0);
+        }
+    }
+    g.lights = std::move(lights);
+    std::erase_if(g.luminaires,
+                  [&](const visdb::Luminaire& l) { return visdb::light_group(l) != group; });
+    return g;
+}
+
+// The light groups of the bake's sources (`g`'s light triangles and luminaires), first seen
+// first; empty unless the scene names some group and there are two or more.
+std::vector<std::string> bake_light_groups(const visdb::Scene& scene, const BakeGeometry& g) {
+    if (!visdb::names_light_groups(scene)) return {};
+    std::vector<std::string> names;
+    const auto add = [&](const std::string& n) {
+        if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
+    };
+    for (const std::string& n : triangle_groups(scene, g))
+        if (!n.empty()) add(n);
+    for (const visdb::Luminaire& l : g.luminaires) add(visdb::light_group(l));
+    if (names.size() < 2) return {};
+    return names;
+}
+
+// What the bake's direct stage gives target's vertices, from the lights of `source` only:
+// without DM the same shots as the bake's own (so a group's share is, bit for bit, what a bake
+// of its lights alone gives), with DM the exact sum over the group's sources at the
+// discontinuity mesh's vertices (or its patch shading).
+std::vector<visdb::Rgb> group_direct(const BakeGeometry& source, const Regions& regions,
+                                     const Bvh& bvh, const Hemicube& hemicube,
+                                     const BakeGeometry& target, bool dm,
+                                     const BakeOptions& options) {
+    const bool exact = options.shading == Shading::Exact;
+    if (!dm) {
+        BakeOptions o = options;
+        o.dm = false;
+        o.cluster = nullptr;
+        LightShots shots = shoot_lights(source, regions, bvh, hemicube, o, nullptr, {});
+        if (exact) return std::move(shots.vertex_irradiance);
+        if (source.luminaires.empty()) bound_by_exitance(source, shots.triangle_irradiance);
+        return average_to_vertices(source, shots.triangle_irradiance);
+    }
+    if (!exact) return shade_patches(source, target, hemicube, options);
+    std::vector<visdb::Rgb> h(target.mesh.positions.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, h.size(), 64), [&](const auto& range) {
+        std::vector<const Patch*> occ;
+        for (std::size_t v = range.begin(); v != range.end(); ++v) {
+            const glm::dvec3 x = target.mesh.positions[v];
+            const glm::dvec3 n(target.mesh.normals[v]);
+            h[v] =
+                exact_irradiance(source.patches, source.emittance, source.lights, bvh, x, n, occ,
+                                 options.reach) +
+                luminaires_irradiance(source.luminaires, source.patches, bvh, x, n, options.reach);
+        }
+    });
+    return h;
+}
+
+// The bake's shades per light group (visdb::Bake::light_groups): per group, its direct light
+// at target's vertices and (bounces != 0) an interreflection solve of its own, shaded as the
+// bake shades its total. One solve per group: the cost of the bake's shoot and
+// interreflection again, once over all groups' sources and once per group.
+std::vector<visdb::LightGroupShades> shade_light_groups(
+    const visdb::Scene& scene, const std::vector<std::string>& groups, const BakeGeometry& source,
+    const Regions& regions, const Bvh& bvh, const Hemicube& hemicube, const BakeGeometry& target,
+    const std::vector<std::uint32_t>& vertex_region, bool dm, const BakeOptions& options,
+    const ProgressFn& progress) {
+    const std::vector<std::string> source_group = triangle_groups(scene, source);
+    const std::vector<std::string> target_group = triangle_groups(scene, target);
+    BakeOptions o = options;
+    o.convergence = nullptr;
+    std::vector<visdb::LightGroupShades> out;
+    for (std::size_t i = 0; i < groups.size(); ++i) {
+        if (progress) progress("light groups", i, groups.size());
+        const BakeGeometry lights = restrict_to_group(source, source_group, groups[i]);
+        BakeGeometry shaded = restrict_to_group(target, target_group, groups[i]);
+        const std::vector<visdb::Rgb> direct =
+            group_direct(lights, regions, bvh, hemicube, shaded, dm, o);
+        std::optional<IndirectSolution> indirect;
+        if (options.bounces != 0) indirect = interreflect(lights, regions, o, nullptr, {});
+        visdb::BakeMesh m = shade_vertices(std::move(shaded), direct,
+                                           indirect ? &*indirect : nullptr, vertex_region, nullptr);
+        out.push_back({groups[i], std::move(m.irradiance), std::move(m.radiosity)});
+    }
+    if (progress) progress("light groups", groups.size(), groups.size());
+    return out;
+}
+
 // The pipeline, in the scene's own frame.
 visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                       const ProgressFn& progress) {
@@ -100,6 +210,8 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     BakeGeometry target;
     std::vector<visdb::Rgb> direct;
     std::vector<std::uint32_t> vertex_region;
+    const std::vector<std::string> groups = bake_light_groups(scene, geometry);
+    const BakeGeometry* sources = &geometry;  // the imported mesh (moved into target without DM)
     if (dm) {
         target = describe_mesh(scene, std::move(dm->mesh));
         direct =
@@ -113,6 +225,16 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                        : average_to_vertices(geometry, shots.triangle_irradiance);
         if (indirect) vertex_region = vertex_regions(geometry, regions);
         target = std::move(geometry);
+        sources = &target;
+    }
+
+    // Shades per light group, when the scene names groups (light scenes without re-baking)
+    if (!groups.empty()) {
+        const auto t_groups = Clock::now();
+        result.light_groups =
+            shade_light_groups(scene, groups, *sources, regions, bvh, hemicube, target,
+                               vertex_region, dm.has_value(), options, progress);
+        stats.seconds_light_groups = seconds_since(t_groups);
     }
     result.mesh = shade_vertices(std::move(target), direct, indirect ? &*indirect : nullptr,
                                  vertex_region, &stats);
@@ -124,6 +246,11 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     result.unit = scene.emittance_unit == "lm/m2" ? "lux" : "W/m2";
     const auto distributed = std::move(result.parameters);
     result.parameters = parameters_of(options);
+    if (!groups.empty()) {
+        std::string names;
+        for (const std::string& g : groups) names += (names.empty() ? "" : ",") + g;
+        result.parameters.emplace_back("light_groups", names);
+    }
     result.parameters.insert(result.parameters.end(), distributed.begin(), distributed.end());
     stats.seconds_total = seconds_since(t_start);
     return result;

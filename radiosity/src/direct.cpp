@@ -1,5 +1,6 @@
 // Exact direct irradiance at arbitrary points (calculation grids, probes): from light triangles
-// (exact.h) and from luminaires as point sources.
+// (exact.h) and from luminaires as point sources, or, for a receiver closer than five times a
+// flat luminous opening's size, integrated over the opening.
 
 #include "abrad/radiosity/direct.h"
 
@@ -7,6 +8,7 @@
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <numbers>
 
 #include "abrad/radiosity/exact.h"
 #include "abrad/radiosity/stage.h"
@@ -106,6 +108,48 @@ double transmittance(std::span<const Patch> patches, const Bvh& bvh, const glm::
     return through;
 }
 
+std::vector<OpeningSample> opening_samples(const visdb::Luminaire& luminaire, double distance) {
+    using Shape = visdb::LuminousOpening::Shape;
+    const visdb::LuminousOpening& o = luminaire.opening;
+    std::vector<OpeningSample> out;
+    if (o.shape != Shape::Rectangle && o.shape != Shape::Disc) return out;
+    if (!(o.length > 0.0 && o.width > 0.0)) return out;
+    if (!(distance < kFiveTimes * o.size())) return out;
+    // Cells no larger than a fifth of the distance, two Gauss-Legendre points each way in each
+    const int n = std::clamp(static_cast<int>(std::ceil(kFiveTimes * o.size() / distance)), 1,
+                             kMaxOpeningCells);
+    const double g = 0.5 / std::sqrt(3.0);  // the Gauss points at 0.5 ± g of a unit cell
+    const double ax = 0.5 * o.length, ay = 0.5 * o.width;
+    const auto place = [&](double u, double v) {
+        return luminaire.position + u * luminaire.axis_x + v * luminaire.axis_y;
+    };
+    if (o.shape == Shape::Rectangle) {
+        // [-ax, ax] x [-ay, ay] in n x n cells; every point weighs the same
+        const double w = 1.0 / (4.0 * n * n);
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j)
+                for (const double si : {0.5 - g, 0.5 + g})
+                    for (const double sj : {0.5 - g, 0.5 + g})
+                        out.push_back({place(ax * (2.0 * (i + si) / n - 1.0),
+                                             ay * (2.0 * (j + sj) / n - 1.0)),
+                                       w});
+        return out;
+    }
+    // The disc (an ellipse of semi-axes ax, ay) in polar cells: n rings, 4n sectors; the
+    // weight of (ρ, φ) is ρ dρ dφ / π
+    const int sectors = 4 * n;
+    const double dr = 1.0 / n, dphi = 2.0 * std::numbers::pi / sectors;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < sectors; ++j)
+            for (const double si : {0.5 - g, 0.5 + g})
+                for (const double sj : {0.5 - g, 0.5 + g}) {
+                    const double r = (i + si) * dr, phi = (j + sj) * dphi;
+                    out.push_back({place(ax * r * std::cos(phi), ay * r * std::sin(phi)),
+                                   r * dr * dphi / (4.0 * std::numbers::pi)});
+                }
+    return out;
+}
+
 visdb::Rgb point_source_irradiance(const visdb::Luminaire& luminaire,
                                    std::span<const Patch> patches, const Bvh& bvh,
                                    const glm::dvec3& x, const glm::dvec3& n) {
@@ -113,6 +157,24 @@ visdb::Rgb point_source_irradiance(const visdb::Luminaire& luminaire,
     const glm::dvec3 to_source = luminaire.position - x;
     const double d2 = glm::dot(to_source, to_source);
     if (!(d2 > 0.0)) return visdb::Rgb(0.0);
+    // A flat opening large against the distance (the five-times rule): the web's intensity
+    // shared evenly by the opening's points, each a point source seen past the occluders
+    const std::vector<OpeningSample> samples = opening_samples(luminaire, std::sqrt(d2));
+    if (!samples.empty()) {
+        visdb::Rgb h(0.0);
+        for (const OpeningSample& s : samples) {
+            const glm::dvec3 to_point = s.point - x;
+            const double r2 = glm::dot(to_point, to_point);
+            if (!(r2 > 0.0)) continue;
+            const glm::dvec3 w = to_point / std::sqrt(r2);
+            const double cos_theta = glm::dot(n, w);
+            if (cos_theta <= 0.0) continue;
+            const visdb::Rgb intensity = luminaire.intensity(-w);
+            if (!visdb::any_positive(intensity)) continue;
+            h += intensity * (s.weight * cos_theta / r2 * transmittance(patches, bvh, x, s.point));
+        }
+        return h;
+    }
     const glm::dvec3 w = to_source / std::sqrt(d2);
     const double cos_theta = glm::dot(n, w);
     if (cos_theta <= 0.0) return visdb::Rgb(0.0);

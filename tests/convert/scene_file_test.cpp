@@ -13,6 +13,7 @@
 #include <fstream>
 #include <glm/geometric.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "temp_dir.h"
@@ -443,6 +444,62 @@ reflectance = 0.9
     EXPECT_EQ(m.name, "Plaster");
     EXPECT_EQ(scene.materials.size(), 3u);
     EXPECT_EQ(report.materials_overridden, 1u);
+}
+
+TEST(SceneFile, LightGroupsGoToTheEmittersMaterials) {
+    visdb::Scene scene = room();
+    const SceneFileReport report = apply_scene_file(parse(R"([[emitter]]
+object = "Wand-South"
+emittance = 10
+group = "wall wash"
+
+[[rule]]
+object = "Ceiling"
+emittance = 5
+group = "office"
+
+[[emitter]]
+name = "panel"
+center = [3, 2, 2.9]
+size = [1, 0.5]
+normal = [0, 0, -1]
+emittance = 100
+group = "office"
+
+[[emitter]]
+name = "other"
+center = [1, 1, 2.9]
+size = [1, 0.5]
+normal = [0, 0, -1]
+emittance = 100
+)"),
+                                                    scene);
+    EXPECT_EQ(material_of(scene, "Wand-South").group, "wall wash");
+    EXPECT_EQ(material_of(scene, "WAND-North").group, "");  // the same model material, split
+    EXPECT_NE(material_of(scene, "Wand-South").name, material_of(scene, "WAND-North").name);
+    EXPECT_EQ(material_of(scene, "Ceiling").group, "office");
+    EXPECT_EQ(material_of(scene, "panel").group, "office");
+    EXPECT_EQ(material_of(scene, "other").group, "");  // the default group, "emitters"
+    EXPECT_EQ(report.emitters_added, 3u);
+
+    // A group needs a light, and a name a mix can give
+    for (const auto& [toml, needle] : std::vector<std::pair<std::string, std::string>>{
+             {"[[rule]]\nobject = \"Ceiling\"\nreflectance = 0.5\ngroup = \"a\"\n",
+              "scene.toml:4: 'group' in [[rule]] needs 'emittance' or 'flux'"},
+             {"[[emitter]]\nobject = \"Ceiling\"\nemittance = 1\ngroup = \"a=1\"\n",
+              "scene.toml:4: 'group' in [[emitter]] must be a non-empty name without ',' or "
+              "'=', got 'a=1'"},
+             {"[[emitter]]\nobject = \"Ceiling\"\nemittance = 1\ngroup = \"\"\n",
+              "scene.toml:4: 'group' in [[emitter]] must be a non-empty name"},
+             {"[[emitter]]\nobject = \"Ceiling\"\nemittance = 1\ngroup = 3\n", "scene.toml:4:"},
+         }) {
+        try {
+            (void)parse(toml);
+            ADD_FAILURE() << "no error for " << toml;
+        } catch (const ImportError& e) {
+            EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+        }
+    }
 }
 
 TEST(SceneFile, RuleOnOneOfTwoSurfacesSplitsTheMaterial) {

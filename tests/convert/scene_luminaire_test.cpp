@@ -110,6 +110,91 @@ opening_size = [0.3, 0.3]
     EXPECT_EQ(aimed.opening.length, 0.3);
 }
 
+/// kDownlight with a lamp-tilt table (geometry 1): 1 upright, 0.5 at 45°, 0.25 at 90°.
+const char* const kTiltedLamp =
+    "IESNA:LM-63-2002\n[MANUFAC] Test\nTILT=INCLUDE\n1\n3\n0 45 90\n1 0.5 0.25\n"
+    "1 4000 1 10 1 1 2 0.2 0.2 0\n1 1 30\n"
+    "0 10 20 30 40 50 60 70 80 90\n0\n"
+    "1000 984.807753 939.692621 866.025404 766.044443 642.787610 500 342.020143 173.648178 0\n";
+
+TEST(SceneLuminaire, TiltTableScalesTheLightAtTheMountedTilt) {
+    const TempDir dir;
+    dir.write("tilt.ies", kTiltedLamp);
+    dir.write("down.ies", kDownlight);
+    const fs::path scene_path = dir.write("scene.toml", R"(
+[[luminaire]]
+file = "tilt.ies"
+position = [0, 0, 3]
+rotation = [0, 0, 30]
+
+[[luminaire]]
+file = "tilt.ies"
+position = [0, 0, 3]
+rotation = [0, 45, 0]
+
+[[luminaire]]
+file = "tilt.ies"
+position = [0, 0, 3]
+target = [3, 0, 1.5]
+
+[[luminaire]]
+file = "tilt.ies"
+position = [0, 0, 3]
+rotation = [120, 0, 0]
+
+[[luminaire]]
+file = "down.ies"
+position = [0, 0, 3]
+rotation = [0, 45, 0]
+)");
+    const SceneFile f = read_scene_file(scene_path);
+    ASSERT_EQ(f.luminaires.size(), 5U);
+    const double pi = std::numbers::pi;
+    // Turned about the vertical only: no tilt, the table's 1
+    EXPECT_NEAR(f.luminaires[0].luminaire.tilt_degrees(), 0.0, 1e-9);
+    EXPECT_EQ(f.luminaires[0].luminaire.tilt_factor, 1.0);
+    // Tilted 45 degrees: the table halves the output, in every direction and in its flux
+    const visdb::Luminaire& half = f.luminaires[1].luminaire;
+    EXPECT_NEAR(half.tilt_degrees(), 45.0, 1e-9);
+    EXPECT_NEAR(half.tilt_factor, 0.5, 1e-12);
+    const double h = std::sqrt(0.5);
+    EXPECT_NEAR(half.intensity({-h, 0.0, -h}).y, 500.0, 1e-9);  // its nadir
+    const visdb::Luminaire& same = f.luminaires[4].luminaire;   // TILT=NONE, tilted alike
+    EXPECT_EQ(same.tilt_factor, 1.0);
+    EXPECT_NEAR(half.flux(), 0.5 * same.flux(), 1e-9 * same.flux());
+    // Aimed at a point 3 m away and 1.5 m down: tilt atan(2) = 63.43 degrees, between the
+    // table's 45 (0.5) and 90 (0.25)
+    const double tilt = std::atan(2.0) * 180.0 / pi;
+    EXPECT_NEAR(f.luminaires[2].luminaire.tilt_degrees(), tilt, 1e-9);
+    EXPECT_NEAR(f.luminaires[2].luminaire.tilt_factor, 0.5 - 0.25 * (tilt - 45.0) / 45.0, 1e-12);
+    // Beyond the table's last angle (120 degrees about x): its last factor
+    EXPECT_NEAR(f.luminaires[3].luminaire.tilt_degrees(), 120.0, 1e-9);
+    EXPECT_EQ(f.luminaires[3].luminaire.tilt_factor, 0.25);
+    // The import's note says so
+    visdb::Scene scene;
+    const SceneFileReport report = apply_scene_file(f, scene);
+    bool noted = false;
+    for (const std::string& note : report.notes)
+        noted = noted || note.find("lamp tilt factor 0.5 at 45 degrees") != std::string::npos;
+    EXPECT_TRUE(noted);
+
+    // A table whose factor is 0 at the mounted tilt: no light, refused at the luminaire's line
+    dir.write("dark.ies",
+              std::string(kTiltedLamp)
+                  .replace(std::string(kTiltedLamp).find("1 0.5 0.25"), 10, "1 0.5 0.00"));
+    const fs::path dark = dir.write("dark.toml",
+                                    "\n[[luminaire]]\nfile = \"dark.ies\"\n"
+                                    "position = [0, 0, 3]\nrotation = [90, 0, 0]\n");
+    try {
+        (void)read_scene_file(dark);
+        FAIL() << "no error";
+    } catch (const ImportError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("dark.toml:2:"), std::string::npos) << what;
+        EXPECT_NE(what.find("tilted 90 degrees gives no light"), std::string::npos) << what;
+    }
+}
+
 struct LuminaireError {
     std::string toml;
     std::size_t line;

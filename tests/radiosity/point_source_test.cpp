@@ -1,6 +1,7 @@
 // Luminaires as point sources in the exact direct field (direct.h): closed forms on a floor
 // (a uniform web E = I h / d³, a cosine web E = I0 cos⁴θ / h²), occluders opaque and
-// translucent, and a turned luminaire against the same luminaire unturned in a turned scene.
+// translucent, a turned luminaire against the same luminaire unturned in a turned scene, and
+// large luminous openings (rectangle, disc) against the uniform-luminance closed forms.
 
 #include <gtest/gtest.h>
 
@@ -108,6 +109,86 @@ TEST(PointSource, OccludersCastTheirShadowAndTranslucentOnesAFraction) {
     EXPECT_EQ(segment_crossing(p, {0.0, 0.0, 1.0}, {0.0, 0.0, 2.0}), -1.0);
     EXPECT_EQ(segment_crossing(p, {0.0, 0.0, 0.0}, {0.0, 0.0, 1.0}), -1.0);
     EXPECT_EQ(segment_crossing(p, {3.0, 0.0, 0.0}, {3.0, 0.0, 2.0}), -1.0);
+}
+
+/// The form factor from a point to a parallel rectangle [0, a] × [0, b] at height h whose
+/// corner lies over the point (the closed form of the configuration factor catalogues).
+double corner_rectangle_factor(double a, double b, double h) {
+    const double x = a / h, y = b / h;
+    const double sx = std::sqrt(1.0 + x * x), sy = std::sqrt(1.0 + y * y);
+    return (x / sx * std::atan(y / sx) + y / sy * std::atan(x / sy)) / (2.0 * std::numbers::pi);
+}
+
+/// The form factor from (px, py, 0), facing up, to the rectangle [x0, x1] × [y0, y1] at height
+/// h facing down (the point under it): four corner rectangles.
+double rectangle_factor(double px, double py, double x0, double x1, double y0, double y1,
+                        double h) {
+    // Inclusion-exclusion over the corners, each corner rectangle signed by its quadrant
+    const auto sign = [](double v) { return v < 0.0 ? -1.0 : 1.0; };
+    const double ex[2] = {x0 - px, x1 - px}, ey[2] = {y0 - py, y1 - py};
+    double f = 0.0;
+    for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j)
+            f += (i == j ? 1.0 : -1.0) * sign(ex[i]) * sign(ey[j]) *
+                 corner_rectangle_factor(std::abs(ex[i]), std::abs(ey[j]), h);
+    return f;
+}
+
+TEST(PointSource, LargeRectangularOpeningGivesTheUniformLuminanceRectangle) {
+    // A cosine web of I0 from a 1.2 × 0.6 m opening is a rectangle of uniform luminance
+    // L = I0 / A: E = π L F, F the point-to-rectangle form factor, under it (2 m < 5 · 1.2)
+    const double i0 = 900.0, length = 1.2, width = 0.6, h = 1.0;
+    visdb::Scene scene = floor_scene(
+        symmetric_web([&](double g) { return g <= 90.0 ? i0 * std::cos(g * kRad) : 0.0; }), h);
+    visdb::Luminaire& l = scene.luminaires[0];
+    l.opening = {visdb::LuminousOpening::Shape::Rectangle, width, length, 0.0};
+    const double luminance = i0 / (length * width);
+    const DirectField field(scene);
+    for (const glm::dvec2 p : {glm::dvec2(0.0, 0.0), glm::dvec2(0.3, 0.1), glm::dvec2(0.9, -0.5),
+                               glm::dvec2(2.5, 1.0)}) {
+        const double expected =
+            std::numbers::pi * luminance *
+            rectangle_factor(p.x, p.y, -0.5 * length, 0.5 * length, -0.5 * width, 0.5 * width, h);
+        const double e = field.irradiance({p.x, p.y, 0.0}, {0.0, 0.0, 1.0}).y;
+        EXPECT_NEAR(e, expected, 5e-4 * expected) << p.x << " " << p.y;
+        // The point source would be off by more than that close under the opening
+        if (p.x == 0.0) {
+            EXPECT_GT(std::abs(i0 / (h * h) - expected), 0.05 * expected);
+        }
+    }
+    // Five sizes away and beyond: the point source, exactly
+    const double far = 6.5;
+    const double cos_theta = h / std::sqrt(h * h + far * far);
+    EXPECT_NEAR(field.irradiance({0.0, far, 0.0}, {0.0, 0.0, 1.0}).y,
+                i0 * std::pow(cos_theta, 4) / (h * h), 2e-4 * i0 * std::pow(cos_theta, 4));
+    EXPECT_TRUE(opening_samples(l, 6.0).empty());
+    EXPECT_EQ(opening_samples(l, 0.5).size(), 4u * 12u * 12u);  // ceil(5 · 1.2 / 0.5) cells
+}
+
+TEST(PointSource, LargeDiscOpeningGivesTheUniformLuminanceDisc) {
+    // A cosine web from a disc of radius R is a disc of uniform luminance L = I0 / (π R²): on
+    // its axis at h, E = π L R² / (h² + R²) = I0 / (h² + R²)
+    const double i0 = 500.0, radius = 0.4;
+    for (const double h : {0.25, 0.8, 1.9}) {
+        visdb::Scene scene = floor_scene(
+            symmetric_web([&](double g) { return g <= 90.0 ? i0 * std::cos(g * kRad) : 0.0; }), h);
+        scene.luminaires[0].opening = {visdb::LuminousOpening::Shape::Disc, 2.0 * radius,
+                                       2.0 * radius, 0.0};
+        const DirectField field(scene);
+        const double expected = i0 / (h * h + radius * radius);
+        EXPECT_NEAR(field.irradiance({0.0, 0.0, 0.0}, {0.0, 0.0, 1.0}).y, expected, 5e-4 * expected)
+            << h;
+    }
+    // An occluder under half the disc: the penumbra (the point source would give all or none)
+    visdb::Scene scene = floor_scene(
+        symmetric_web([&](double g) { return g <= 90.0 ? i0 * std::cos(g * kRad) : 0.0; }), 1.0);
+    scene.luminaires[0].opening = {visdb::LuminousOpening::Shape::Disc, 2.0 * radius, 2.0 * radius,
+                                   0.0};
+    add_quad(scene, 0.0, -1.0, 1.0, 1.0, 0.99, 1.0);  // just under the half x > 0
+    const DirectField shaded(scene);
+    const double full = i0 / (1.0 + radius * radius);
+    const double e = shaded.irradiance({0.0, 0.0, 0.0}, {0.0, 0.0, 1.0}).y;
+    EXPECT_NEAR(e, 0.5 * full, 0.01 * full);
 }
 
 /// `v` turned by R = Rz(c) Ry(b) Rx(a), degrees.

@@ -1,8 +1,9 @@
 // [[luminaire]] through the command line: the import reports each luminaire's flux against its
 // lamps and stores it (abrad info lists it), the bake lights with it (a scene lit only by
 // luminaires), a malformed photometric file fails the import (exit 2) naming its line and
-// field with the database unchanged, and the furnished room sample lit by downlights from an
-// IES file imports, bakes, exports and probes to the closed form.
+// field with the database unchanged, the furnished room sample lit by downlights from an
+// IES file imports, bakes, exports and probes to the closed form, and light scenes mix the
+// bake's light groups without re-baking.
 
 #include <gtest/gtest.h>
 
@@ -13,6 +14,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "../radiosity/mesh_checks.h"
@@ -163,6 +165,81 @@ SymmetricWeb read_symmetric_ies(const std::string& text) {
 // downlight.ies) instead of its panels: import, a direct-light bake whose exported vertices
 // carry the closed form I(γ)·cos θ/d², the default bake (interreflection: the probe gets more
 // than the direct light), and probes against the closed form.
+// Light scenes: two groups of luminaires over the floor; the bake stores both, and
+// --scene-mix with the corridor off gives what a bake of the office alone gives (probe and
+// export), the bake's own mix the bake itself, and an unknown group exit 2.
+TEST(LuminaireCli, SceneMixWithoutReBaking) {
+    const TempDir dir("luminaire");
+    fs::create_directories(dir / "model");
+    const fs::path floor = dir.write("model/floor.obj", kFloor);
+    dir.write("model/lamp.ies", kIes);
+    const std::string office =
+        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [1, 1, 2]\ngroup = \"office\"\n";
+    const std::string corridor =
+        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [3, 2.5, 2.5]\ngroup = \"corridor\"\n";
+    const fs::path both = dir.write("model/both.toml", office + "\n" + corridor);
+    const fs::path alone = dir.write("model/office.toml", office);
+    const std::string db = dir.file("both.visdb"), db_office = dir.file("office.visdb");
+    for (const auto& [scene, file] : {std::pair{both, db}, std::pair{alone, db_office}}) {
+        ASSERT_EQ(
+            run_abrad("import " + floor.string() + " --scene " + scene.string() + " --db " + file)
+                .status,
+            0);
+        const auto baked = run_abrad("bake --db " + file + " --bounces 0 --dm off --name b");
+        ASSERT_EQ(baked.status, 0) << baked.output;
+    }
+    const auto info = run_abrad("info --db " + db);
+    EXPECT_NE(info.output.find("light_groups=office,corridor"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find(", group corridor"), std::string::npos) << info.output;
+
+    // Probe: the corridor off is the office alone
+    const fs::path csv = dir.write("points.csv", "0.5,0.5,0,0,0,1\n2,2,0,0,0,1\n3.5,3,0,0,0,1\n");
+    const auto mixed =
+        run_abrad("probe --db " + db + " --points " + csv.string() + " --scene-mix corridor=0");
+    const auto office_only = run_abrad("probe --db " + db_office + " --points " + csv.string());
+    ASSERT_EQ(mixed.status, 0) << mixed.output;
+    ASSERT_EQ(office_only.status, 0) << office_only.output;
+    const std::vector<double> a = probe_rows(mixed.output), b = probe_rows(office_only.output);
+    ASSERT_EQ(a.size(), 3u);
+    ASSERT_EQ(b.size(), 3u);
+    for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-6 * b[i]) << i;
+
+    // Export: every vertex as the office's own bake; the bake's own mix is the bake, byte for
+    // byte
+    const fs::path off = dir / "off.ply", ref = dir / "ref.ply";
+    const fs::path own = dir / "own.ply", plain = dir / "plain.ply";
+    ASSERT_EQ(run_abrad("export --db " + db + " --output " + off.string() +
+                        " --scene-mix \"office=1, corridor=0\"")
+                  .status,
+              0);
+    ASSERT_EQ(run_abrad("export --db " + db_office + " --output " + ref.string()).status, 0);
+    const abrad::visdb::BakeMesh m = read_ply(file_bytes(off)), r = read_ply(file_bytes(ref));
+    ASSERT_EQ(m.positions.size(), r.positions.size());
+    ASSERT_FALSE(m.positions.empty());
+    for (std::size_t v = 0; v < m.positions.size(); ++v)
+        EXPECT_NEAR(m.irradiance[v].y, r.irradiance[v].y, 1e-6 * r.irradiance[v].y) << v;
+    ASSERT_EQ(run_abrad("export --db " + db + " --output " + own.string() +
+                        " --scene-mix office=1,corridor=1")
+                  .status,
+              0);
+    ASSERT_EQ(run_abrad("export --db " + db + " --output " + plain.string()).status, 0);
+    EXPECT_EQ(file_bytes(own), file_bytes(plain));
+
+    // Mistakes: exit 2 naming the option and what is wrong
+    const auto unknown = run_abrad("render --db " + db + " --output " + (dir / "x.png").string() +
+                                   " --scene-mix kitchen=0.5");
+    EXPECT_EQ(unknown.status, 2) << unknown.output;
+    EXPECT_NE(unknown.output.find("--scene-mix 'kitchen=0.5': bake 'b' has no light group "
+                                  "'kitchen' (its groups: 'office', 'corridor')"),
+              std::string::npos)
+        << unknown.output;
+    const auto malformed =
+        run_abrad("probe --db " + db + " --points " + csv.string() + " --scene-mix office=-1");
+    EXPECT_EQ(malformed.status, 2) << malformed.output;
+    EXPECT_NE(malformed.output.find("the factor must be a finite number >= 0"), std::string::npos)
+        << malformed.output;
+}
+
 TEST(LuminaireCli, RoomLitByDownlightsImportsBakesExportsAndProbes) {
     const TempDir dir("luminaire");
     const std::string samples = ABRAD_SAMPLES;

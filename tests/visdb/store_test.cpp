@@ -202,6 +202,7 @@ void expect_same_scene(const visdb::Scene& expected, const visdb::Scene& actual)
         EXPECT_EQ(bits(e.reflectance), bits(a.reflectance));
         EXPECT_EQ(bits(e.emittance), bits(a.emittance));
         EXPECT_EQ(bits(e.opacity), bits(a.opacity));
+        EXPECT_EQ(e.group, a.group);
     }
     ASSERT_EQ(expected.surfaces.size(), actual.surfaces.size());
     for (std::size_t i = 0; i < expected.surfaces.size(); ++i) {
@@ -258,6 +259,8 @@ void expect_same_scene(const visdb::Scene& expected, const visdb::Scene& actual)
         EXPECT_EQ(e.web.horizontal, a.web.horizontal);
         EXPECT_EQ(e.web.vertical, a.web.vertical);
         EXPECT_EQ(e.web.candela, a.web.candela);
+        EXPECT_EQ(e.group, a.group);
+        EXPECT_EQ(bits(glm::dvec3(e.tilt_factor)), bits(glm::dvec3(a.tilt_factor)));
     }
     EXPECT_EQ(expected.emittance_unit, actual.emittance_unit);
 }
@@ -284,6 +287,15 @@ void expect_same_bake(const visdb::Bake& expected, const visdb::Bake& actual) {
     expect_same(expected.mesh.triangle_surface, actual.mesh.triangle_surface, "triangle_surface");
     expect_same(expected.mesh.irradiance, actual.mesh.irradiance, "irradiance");
     expect_same(expected.mesh.radiosity, actual.mesh.radiosity, "radiosity");
+    ASSERT_EQ(expected.light_groups.size(), actual.light_groups.size());
+    for (std::size_t i = 0; i < expected.light_groups.size(); ++i) {
+        SCOPED_TRACE("light group " + std::to_string(i));
+        EXPECT_EQ(expected.light_groups[i].name, actual.light_groups[i].name);
+        expect_same(expected.light_groups[i].irradiance, actual.light_groups[i].irradiance,
+                    "group irradiance");
+        expect_same(expected.light_groups[i].radiosity, actual.light_groups[i].radiosity,
+                    "group radiosity");
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -367,6 +379,8 @@ visdb::Scene make_luminaire_scene() {
     l.web.horizontal = {-90.0, 0.0, 90.0};
     l.web.vertical = {-45.0, 0.0, 1.0 / 3.0, 45.0};
     l.web.candela = {0.0, 1.0, 2.0, 3.0, 4.0, 5e300, 6.0, 7.0, 8.0, 9.0, 10.0, 1e-300};
+    l.group = "corridor ünïcode";
+    l.tilt_factor = 1.0 / 3.0;
     scene.luminaires.push_back(l);
     return scene;
 }
@@ -712,7 +726,8 @@ TEST(Store, Version1DatabaseMigratesKeepingItsScene) {
     visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(scene);
     // Turn the file back into what schema version 1 wrote
     RawDb(path).exec(
-        "DROP TABLE grids; DROP TABLE luminaires; "
+        "DROP TABLE grids; DROP TABLE luminaires; DROP TABLE bake_light_groups; "
+        "ALTER TABLE materials DROP COLUMN light_group; "
         "UPDATE meta SET value = '1' WHERE key = 'schema_version'; "
         "PRAGMA user_version = 1");
     expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly); },
@@ -732,7 +747,9 @@ TEST(Store, Version2DatabaseMigratesAndTakesLuminaires) {
     visdb::Store::open(path, OpenMode::CreateOrOpen).add_import(scene);
     // Turn the file back into what schema version 2 wrote
     RawDb(path).exec(
-        "DROP TABLE luminaires; UPDATE meta SET value = '2' WHERE key = 'schema_version'; "
+        "DROP TABLE luminaires; DROP TABLE bake_light_groups; "
+        "ALTER TABLE materials DROP COLUMN light_group; "
+        "UPDATE meta SET value = '2' WHERE key = 'schema_version'; "
         "PRAGMA user_version = 2");
     expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly); },
                        {path, "read-write once to migrate"});
@@ -742,6 +759,68 @@ TEST(Store, Version2DatabaseMigratesAndTakesLuminaires) {
     // Its emitters are W/m2: photometric luminaires cannot join them
     expect_store_error([&] { store.add_import(make_luminaire_scene()); },
                        {path, "cannot be mixed"});
+}
+
+TEST(Store, Version3DatabaseMigratesKeepingItsBakeAsOneLightGroup) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("v3.visdb");
+    visdb::Scene scene = make_luminaire_scene();
+    scene.luminaires[0].group.clear();  // version 3 had no groups nor tilt factors
+    scene.luminaires[0].tilt_factor = 1.0;
+    const visdb::Bake bake = make_bake("before groups", 3, 2.0f);
+    {
+        auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
+        store.add_import(scene);
+        store.add_bake(bake);
+    }
+    // Turn the file back into what schema version 3 wrote
+    RawDb(path).exec(
+        "DROP TABLE bake_light_groups; ALTER TABLE materials DROP COLUMN light_group; "
+        "ALTER TABLE luminaires DROP COLUMN light_group; "
+        "ALTER TABLE luminaires DROP COLUMN tilt_factor; "
+        "UPDATE meta SET value = '3' WHERE key = 'schema_version'; PRAGMA user_version = 3");
+    expect_store_error([&] { visdb::Store::open(path, OpenMode::ReadOnly); },
+                       {path, "read-write once to migrate"});
+    auto store = visdb::Store::open(path, OpenMode::ReadWrite);
+    EXPECT_EQ(store.schema_version(), visdb::kSchemaVersion);
+    expect_same_scene(scene, store.load_scene());
+    expect_same_bake(bake, store.load_bake("before groups"));  // no light groups
+    // A bake with groups joins it
+    visdb::Bake grouped = make_bake("grouped", 3, 1.0f);
+    grouped.light_groups.push_back({"office", grouped.mesh.irradiance, grouped.mesh.radiosity});
+    store.add_bake(grouped);
+    expect_same_bake(grouped, store.load_bake("grouped"));
+}
+
+TEST(Store, LightGroupsRoundTripAndAreChecked) {
+    const TempDir dir("visdb");
+    const std::string path = dir.file("groups.visdb");
+    visdb::Scene scene = make_scene();
+    scene.materials[2].group = "office";
+    visdb::Bake bake = make_bake("groups", 4, 1.5f);
+    visdb::Bake other = make_bake("other", 4, 7.5f);
+    bake.light_groups.push_back({"office", other.mesh.irradiance, other.mesh.radiosity});
+    bake.light_groups.push_back({"corridor", bake.mesh.radiosity, bake.mesh.irradiance});
+    {
+        auto store = visdb::Store::open(path, OpenMode::CreateOrOpen);
+        store.add_import(scene);
+        store.add_bake(bake);
+    }
+    auto store = visdb::Store::open(path, OpenMode::ReadWrite);
+    expect_same_scene(scene, store.load_scene());
+    expect_same_bake(bake, store.load_bake("groups"));
+    // A group's shades must cover every vertex; nothing is written otherwise
+    visdb::Bake short_group = bake;
+    short_group.name = "short";
+    short_group.light_groups[1].radiosity.pop_back();
+    expect_store_error([&] { store.add_bake(short_group); },
+                       {path, "light group 'corridor' needs one shade per vertex"});
+    EXPECT_EQ(store.list_bakes().size(), 1u);
+    // A truncated BLOB is corrupt
+    RawDb(path).exec(
+        "UPDATE bake_light_groups SET irradiance = substr(irradiance, 1, 12) WHERE seq = 1");
+    expect_store_error([&] { store.load_bake("groups"); },
+                       {path, "corrupt light group 'corridor' of bake 'groups'"});
 }
 
 TEST(Store, LuminairesRoundTripBitExact) {

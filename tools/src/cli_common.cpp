@@ -16,6 +16,7 @@
 #include "abrad/convert/import.h"
 #include "abrad/export/exposure.h"
 #include "abrad/export/render.h"
+#include "abrad/visdb/light_scene.h"
 
 namespace abrad::tools::cli {
 
@@ -273,6 +274,26 @@ visdb::Bake load_bake_for(visdb::Store& store, const std::string& db, const std:
     } catch (const visdb::StoreError& e) {
         if (e.kind() == visdb::StoreError::Kind::Failure) throw;
         bad_input(e.what());
+    }
+}
+
+void add_scene_mix_option(CLI::App& app, std::string& mix) {
+    app.add_option("--scene-mix", mix,
+                   "Light scene: the bake's light groups dimmed, NAME=FACTOR,... (e.g. "
+                   "office=1,corridor=0.3; a group not named keeps 1), without re-baking. The "
+                   "groups are those the scene file's 'group' keys made (abrad info lists a "
+                   "bake's)");
+}
+
+void mix_light_scene(const std::string& mix, visdb::Scene& scene, visdb::Bake& bake) {
+    if (mix.empty()) return;
+    try {
+        const visdb::SceneMix parsed = visdb::parse_scene_mix(mix);
+        visdb::apply_scene_mix(parsed, scene, bake);
+        // The settings the report lists say which light scene it shows
+        if (!parsed.is_identity()) bake.parameters.emplace_back("scene_mix", mix);
+    } catch (const std::invalid_argument& e) {
+        bad_input("--scene-mix '" + mix + "': " + e.what());
     }
 }
 

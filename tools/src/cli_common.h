@@ -136,6 +136,15 @@ visdb::Store open_db(const std::string& db, visdb::OpenMode mode = visdb::OpenMo
 visdb::Bake load_bake_for(visdb::Store& store, const std::string& db, const std::string& bake_name,
                           const std::string& purpose);
 
+/// Declares --scene-mix on `app`, bound to `mix`.
+void add_scene_mix_option(CLI::App& app, std::string& mix);
+
+/// Applies the light scene `mix` (the text of --scene-mix, visdb::parse_scene_mix; empty:
+/// nothing) to `bake` and the `scene` it was baked from (visdb::apply_scene_mix), and records
+/// it as the bake's parameter `scene_mix` (unless it is the bake's own). A malformed mix or a
+/// group the bake does not have is bad input naming the option.
+void mix_light_scene(const std::string& mix, visdb::Scene& scene, visdb::Bake& bake);
+
 /// Direct plus gathered indirect irradiance at points; a scene without lights is bad input.
 radiosity::PointIrradiance point_irradiance_of(const std::string& db, const visdb::Scene& scene,
                                                const visdb::Bake* bake);
@@ -192,6 +201,7 @@ struct ExportArgs {
     std::string surface_ids = "face";  ///< ply: face|vertex
     std::optional<double> simplify;    ///< export a light mesh: simplify_mesh's error bound
     bool pov_tone_map = false;         ///< pov: tone-mapped colours for PNG, not linear ones
+    std::string scene_mix;             ///< --scene-mix: light groups dimmed; empty: the bake's
     ViewArgs view;
 };
 /// Exports a bake (or the model, pov-reference) in `a.format`, or the format the output's
@@ -212,6 +222,7 @@ struct RenderArgs {
     ViewArgs view;
     bool false_colour = false;
     std::optional<double> vmin, vmax;
+    std::string scene_mix;  ///< --scene-mix: light groups dimmed; empty: the bake's
 };
 /// Renders a bake with abrad's rasterizer into an image file.
 void render_image(const RenderArgs& a);

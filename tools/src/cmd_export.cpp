@@ -26,6 +26,10 @@ struct ExportJob {
     std::string_view format;
     visdb::Store& store;
     const visdb::Scene& scene;
+    /// --scene-mix: the mixed bake, and the tone map of the bake's own light scene (so that a
+    /// dimmed scene looks dimmer, unless --exposure says otherwise)
+    const std::optional<visdb::Bake>& mixed;
+    const std::optional<exporter::ToneMap>& own_tone;
 };
 
 // The bake to export and its tone map (--exposure, else the bake's own).
@@ -35,8 +39,10 @@ struct ToneMapped {
 };
 
 ToneMapped bake_of(const ExportJob& job) {
-    visdb::Bake b = load_bake_for(job.store, job.args.db, job.args.bake, "export");
-    const exporter::ToneMap tone = exposure_for(b, job.scene, job.args.view);
+    visdb::Bake b =
+        job.mixed ? *job.mixed : load_bake_for(job.store, job.args.db, job.args.bake, "export");
+    const exporter::ToneMap tone =
+        job.own_tone ? *job.own_tone : exposure_for(b, job.scene, job.args.view);
     // --simplify: a light mesh, toned as the bake itself
     if (job.args.simplify) b.mesh = simplify_mesh(b, *job.args.simplify, "--simplify");
     return {std::move(b), tone};
@@ -109,9 +115,12 @@ void write_pov_reference(const ExportJob& job) {
     if (!view.exposure) {
         if (job.store.list_bakes().empty())
             bad_input(job.args.db + ": no bake to take the exposure from (give --exposure)");
-        exposure = exposure_for(load_bake_for(job.store, job.args.db, job.args.bake, "export"),
-                                job.scene, view)
-                       .exposure;
+        exposure =
+            job.own_tone
+                ? job.own_tone->exposure
+                : exposure_for(load_bake_for(job.store, job.args.db, job.args.bake, "export"),
+                               job.scene, view)
+                      .exposure;
         from = "of the bake";
     }
     exporter::PovReferenceOptions o;
@@ -237,8 +246,22 @@ ExportArgs& state() {
 void export_bake(const ExportArgs& a) {
     const ExportFormat& format = choose_format(a);
     visdb::Store store = open_db(a.db);
-    const visdb::Scene scene = store.load_scene();
-    format.write({.args = a, .format = format.name, .store = store, .scene = scene});
+    visdb::Scene scene = store.load_scene();
+    // --scene-mix: the bake and the scene's lights dimmed by group (pov-reference lights the
+    // dimmed scene)
+    std::optional<visdb::Bake> mixed;
+    std::optional<exporter::ToneMap> own_tone;
+    if (!a.scene_mix.empty()) {
+        mixed = load_bake_for(store, a.db, a.bake, "export");
+        own_tone = exposure_for(*mixed, scene, a.view);
+        mix_light_scene(a.scene_mix, scene, *mixed);
+    }
+    format.write({.args = a,
+                  .format = format.name,
+                  .store = store,
+                  .scene = scene,
+                  .mixed = mixed,
+                  .own_tone = own_tone});
 }
 
 void add_export(CLI::App& app) {
@@ -259,6 +282,7 @@ void add_export(CLI::App& app) {
         ->check(CLI::IsMember(names));
     app.add_option("--output", s.output, "Output path")->required();
     app.add_option("--bake", s.bake, "Bake name (default: the latest)");
+    add_scene_mix_option(app, s.scene_mix);
     app.add_flag("--ascii", s.ascii, "PLY as ASCII instead of binary little endian");
     app.add_option("--up", s.up,
                    "The written file's up axis: y writes abrad's (x, y, z) as (x, z, -y) (default: "

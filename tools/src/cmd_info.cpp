@@ -44,6 +44,7 @@ void print_info(const std::string& db) {
             light_power += area * visdb::channel_mean(m.emittance);
             std::cout << ", emits E (" << m.emittance.x << " " << m.emittance.y << " "
                       << m.emittance.z << ") " << scene.emittance_unit << " over " << area << " m2";
+            if (!m.group.empty()) std::cout << ", group " << m.group;
         }
         std::cout << "\n";
     }
@@ -64,7 +65,8 @@ void print_info(const std::string& db) {
                   << l.position.y << " " << l.position.z << "), nadir toward (" << -l.axis_z.x
                   << " " << -l.axis_z.y << " " << -l.axis_z.z << "), " << l.flux() << " lm, "
                   << l.web.max_candela() * l.scale() << " cd max, opening "
-                  << visdb::to_string(l.opening.shape) << "\n";
+                  << visdb::to_string(l.opening.shape)
+                  << (l.group.empty() ? "" : ", group " + l.group) << "\n";
     }
     const auto bakes = store.list_bakes();
     std::cout << "bakes (" << bakes.size() << "):\n";

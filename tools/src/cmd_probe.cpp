@@ -15,6 +15,7 @@ struct ProbeArgs {
     std::string db;
     std::string points;
     std::string bake;
+    std::string scene_mix;
 };
 
 ProbeArgs& state() {
@@ -47,6 +48,7 @@ void add_probe(CLI::App& app) {
                    "Bake whose interreflection to gather and unit to "
                    "report (default: the latest; none: exact direct light only, as does a "
                    "database without bakes)");
+    add_scene_mix_option(app, s.scene_mix);
 }
 
 int run_probe(const Invocation&) {
@@ -58,8 +60,12 @@ int run_probe(const Invocation&) {
         bad_input(e.what());
     }
     visdb::Store store = open_db(s.db);
-    const std::optional<visdb::Bake> bake = bake_to_gather(store, s.bake);
-    const visdb::Scene scene = store.load_scene();
+    std::optional<visdb::Bake> bake = bake_to_gather(store, s.bake);
+    visdb::Scene scene = store.load_scene();
+    if (!s.scene_mix.empty()) {
+        if (!bake) bad_input("--scene-mix needs a bake: its light groups are the bake's");
+        mix_light_scene(s.scene_mix, scene, *bake);
+    }
     const std::string unit = bake ? bake->unit : scene.emittance_unit == "lm/m2" ? "lux" : "W/m2";
     const radiosity::PointIrradiance field =
         point_irradiance_of(s.db, scene, bake ? &*bake : nullptr);

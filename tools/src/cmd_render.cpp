@@ -58,10 +58,12 @@ void render_image(const RenderArgs& a) {
         ext != ".tif" && ext != ".tiff")
         bad_input(a.output + ": unknown image type '" + ext + "' (png, exr, hdr, jpg, tif)");
     visdb::Store store = open_db(a.db);
-    const visdb::Bake b = load_bake_for(store, a.db, a.bake, "render");
-    const visdb::Scene scene = store.load_scene();
+    visdb::Bake b = load_bake_for(store, a.db, a.bake, "render");
+    visdb::Scene scene = store.load_scene();
     const visdb::Camera camera = camera_for(scene, a.view);
+    // The exposure of the bake's own light scene: a dimmed one looks dimmer (--exposure wins)
     const exporter::ToneMap tone = exposure_for(b, scene, a.view);
+    mix_light_scene(a.scene_mix, scene, b);
     const auto t0 = std::chrono::steady_clock::now();
     const exporter::Raster r =
         exporter::render_bake(b.mesh, camera,
@@ -98,6 +100,7 @@ void add_render(CLI::App& app) {
     RenderArgs& s = state();
     app.add_option("--db", s.db, "Visual database")->required();
     app.add_option("--bake", s.bake, "Bake name (default: the latest)");
+    add_scene_mix_option(app, s.scene_mix);
     app.add_option("--output", s.output,
                    "Image path: .png (sRGB, tone-mapped) or .exr (linear, "
                    "exposure x radiosity)")

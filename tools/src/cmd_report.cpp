@@ -35,6 +35,7 @@ struct ReportArgs {
     std::string db;
     std::string bake;
     std::string out;
+    std::string scene_mix;
 };
 
 ReportArgs& state() {
@@ -165,6 +166,7 @@ void add_report(CLI::App& app) {
     ReportArgs& s = state();
     app.add_option("--db", s.db, "Visual database")->required();
     app.add_option("--bake", s.bake, "Bake to report (default: the latest)");
+    add_scene_mix_option(app, s.scene_mix);
     app.add_option("--out", s.out,
                    "Output folder (created; an earlier report there is replaced): index.html "
                    "and the files it shows")
@@ -176,8 +178,12 @@ int run_report(const Invocation&) {
     const fs::path out = fs::absolute(fs::path(s.out)).lexically_normal();
     check_out(out);
     visdb::Store store = open_db(s.db, visdb::OpenMode::ReadOnly);
-    const visdb::Scene scene = store.load_scene();
-    const visdb::Bake bake = load_bake_for(store, s.db, s.bake, "report");
+    visdb::Scene scene = store.load_scene();
+    visdb::Bake bake = load_bake_for(store, s.db, s.bake, "report");
+    // The exposure of the bake's own light scene, so that a dimmed one looks dimmer
+    const ViewArgs view;
+    const exporter::ToneMap tone = exposure_for(bake, scene, view);
+    mix_light_scene(s.scene_mix, scene, bake);
 
     // Everything is written into a staging folder beside OUT (same file system), removed on
     // the way out whatever happens
@@ -202,8 +208,7 @@ int run_report(const Invocation&) {
         failure(e.what());
     }
     in.luminaires = schedule_of(scene);
-    const ViewArgs view;
-    in.tone = exposure_for(bake, scene, view);
+    in.tone = tone;
     in.view = exporter::ReportView{camera_for(scene, view)};
     in.viewer_script = viewer_script();
     in.viewer_hint = kViewerHint;

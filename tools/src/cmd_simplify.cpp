@@ -75,6 +75,10 @@ int run_simplify(const Invocation&) {
         bad_input("--name " + b.name +
                   ": the simplified bake would replace the bake it is made of");
     b.mesh = simplify_mesh(b, s.error, "--error", s.floor);
+    // The light groups' shades belong to the full mesh's vertices: the light mesh keeps none
+    // (a light scene of it: export --simplify --scene-mix from the full bake)
+    b.light_groups.clear();
+    std::erase_if(b.parameters, [](const auto& p) { return p.first == "light_groups"; });
     b.created_at = utc_now();
     b.parameters.emplace_back("simplified_from", source);
     b.parameters.emplace_back("simplify_error", std::to_string(s.error));

@@ -205,6 +205,24 @@ CREATE TABLE luminaires(
     candela            BLOB NOT NULL
 );
 )sql"},
+    {3, R"sql(
+-- Light groups (light scenes without re-baking): the group a scene file gave an emitting
+-- material or a luminaire ('' = the default: 'emitters', the photometric file's stem), and a
+-- bake's shades per group (float32 xyz per vertex of its bake_meshes row, little-endian), one
+-- row per group in seq order; a bake without rows is one group.
+ALTER TABLE materials ADD COLUMN light_group TEXT NOT NULL DEFAULT '';
+ALTER TABLE luminaires ADD COLUMN light_group TEXT NOT NULL DEFAULT '';
+-- The lamp-tilt multiplier of a TILT=INCLUDE file at the luminaire's tilt (1: none)
+ALTER TABLE luminaires ADD COLUMN tilt_factor REAL NOT NULL DEFAULT 1;
+CREATE TABLE bake_light_groups(
+    bake_id    INTEGER NOT NULL REFERENCES bakes(id) ON DELETE CASCADE,
+    seq        INTEGER NOT NULL,
+    name       TEXT NOT NULL,
+    irradiance BLOB NOT NULL,
+    radiosity  BLOB NOT NULL,
+    PRIMARY KEY(bake_id, seq)
+);
+)sql"},
 };
 
 static_assert(std::size(kMigrations) == static_cast<std::size_t>(kSchemaVersion),
@@ -717,7 +735,7 @@ constexpr const char* kLuminaireColumns =
     "axis_y_x, axis_y_y, axis_y_z, axis_z_x, axis_z_y, axis_z_z, flux_scale, "
     "maintenance_factor, color_r, color_g, color_b, opening_shape, opening_width, "
     "opening_length, opening_height, web_type, horizontal_count, vertical_count, horizontal, "
-    "vertical, candela";
+    "vertical, candela, light_group, tilt_factor";
 
 // Appends the luminaires of the database to `scene`; a row that does not make a valid web or
 // frame is corrupt.
@@ -753,6 +771,10 @@ void load_luminaires(const Connection& c, Scene& scene) {
         l.opening.shape = static_cast<LuminousOpening::Shape>(shape);
         l.web.type = static_cast<PhotometricType>(type);
         if (!valid_web(l.web)) c.fail("corrupt photometric web of luminaire '" + l.name + "'");
+        l.group = q.text(30);
+        l.tilt_factor = q.real(31);
+        if (!(l.tilt_factor > 0.0 && std::isfinite(l.tilt_factor)))
+            c.fail("corrupt tilt factor of luminaire '" + l.name + "'");
     }
 }
 
@@ -760,7 +782,7 @@ void insert_luminaires(const Connection& c, const std::vector<Luminaire>& lumina
     Statement insert(c, std::string("INSERT INTO luminaires(") + kLuminaireColumns +
                             ") VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, "
                             "?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, "
-                            "?27, ?28, ?29, ?30)");
+                            "?27, ?28, ?29, ?30, ?31, ?32)");
     for (const Luminaire& l : luminaires) {
         if (!valid_web(l.web)) c.fail("import: luminaire '" + l.name + "' has an invalid web");
         const auto horizontal = encode(l.web.horizontal);
@@ -788,6 +810,8 @@ void insert_luminaires(const Connection& c, const std::vector<Luminaire>& lumina
         insert.bind_blob_static(28, horizontal);
         insert.bind_blob_static(29, vertical);
         insert.bind_blob_static(30, candela);
+        insert.bind(31, l.group);
+        insert.bind(32, l.tilt_factor);
         insert.run();
     }
 }
@@ -878,7 +902,7 @@ Scene Store::load_scene() const {
     {
         Statement q(c,
                     "SELECT id, name, rho_r, rho_g, rho_b, emittance_r, emittance_g, emittance_b, "
-                    "opacity FROM materials ORDER BY id");
+                    "opacity, light_group FROM materials ORDER BY id");
         while (q.step()) {
             material_index.emplace(q.int64(0), static_cast<std::uint32_t>(scene.materials.size()));
             Material& m = scene.materials.emplace_back();
@@ -886,6 +910,7 @@ Scene Store::load_scene() const {
             m.reflectance = Rgb(q.real(2), q.real(3), q.real(4));
             m.emittance = Rgb(q.real(5), q.real(6), q.real(7));
             m.opacity = q.real(8);
+            m.group = q.text(9);
         }
     }
 
@@ -1047,8 +1072,8 @@ void Store::add_import(const Scene& imported, SameSource same_source) {
         {
             Statement insert(c,
                              "INSERT INTO materials(name, rho_r, rho_g, rho_b, emittance_r, "
-                             "emittance_g, emittance_b, opacity) VALUES (?1, ?2, ?3, ?4, ?5, ?6, "
-                             "?7, ?8)");
+                             "emittance_g, emittance_b, opacity, light_group) VALUES (?1, ?2, "
+                             "?3, ?4, ?5, ?6, ?7, ?8, ?9)");
             for (const Material& m : imported.materials) {
                 insert.bind(1, m.name);
                 for (glm::length_t i = 0; i < 3; ++i) {
@@ -1056,6 +1081,7 @@ void Store::add_import(const Scene& imported, SameSource same_source) {
                     insert.bind(5 + i, m.emittance[i]);
                 }
                 insert.bind(8, m.opacity);
+                insert.bind(9, m.group);
                 insert.run();
                 material_ids.push_back(sqlite3_last_insert_rowid(c.get()));
             }
@@ -1147,6 +1173,25 @@ std::string bake_name(const Connection& c, const Bake& bake, bool numbered) {
 }
 
 // Stores `bake` (named, or numbered by bake_name) in one transaction: its id and name.
+// The shades per light group of bake `id` (each group one row; bound, not streamed).
+void insert_light_groups(const Connection& c, std::int64_t id,
+                         const std::vector<LightGroupShades>& groups) {
+    Statement insert(c,
+                     "INSERT INTO bake_light_groups(bake_id, seq, name, irradiance, radiosity) "
+                     "VALUES (?1, ?2, ?3, ?4, ?5)");
+    std::int64_t seq = 0;
+    for (const LightGroupShades& g : groups) {
+        const auto irradiance = encode(g.irradiance);
+        const auto radiosity = encode(g.radiosity);
+        insert.bind(1, id);
+        insert.bind(2, seq++);
+        insert.bind(3, g.name);
+        insert.bind_blob_static(4, irradiance);
+        insert.bind_blob_static(5, radiosity);
+        insert.run();
+    }
+}
+
 std::pair<std::int64_t, std::string> write_bake(const Connection& c, const Bake& bake,
                                                 bool numbered,
                                                 const std::function<void(double)>& progress) {
@@ -1168,6 +1213,10 @@ std::pair<std::int64_t, std::string> write_bake(const Connection& c, const Bake&
     }
     if (!indices_below(mesh.triangles, vertex_count)) {
         c.fail(label + ": a triangle index is out of range");
+    }
+    for (const LightGroupShades& g : bake.light_groups) {
+        if (g.irradiance.size() != vertex_count || g.radiosity.size() != vertex_count)
+            c.fail(label + ": light group '" + g.name + "' needs one shade per vertex");
     }
 
     try {
@@ -1269,6 +1318,7 @@ std::pair<std::int64_t, std::string> write_bake(const Connection& c, const Bake&
             }
         }
 
+        insert_light_groups(c, id, bake.light_groups);
         report(1.0);
         transaction.commit();
         return {id, name};
@@ -1412,6 +1462,19 @@ Bake Store::load_bake(const std::string& name) const {
                         decode(q.blob(7), q.int64(0), m.radiosity) &&
                         indices_below(m.triangles, m.positions.size());
         if (!ok) c.fail("corrupt mesh for bake '" + bake.name + "'");
+    }
+    {
+        Statement q(c,
+                    "SELECT name, irradiance, radiosity FROM bake_light_groups WHERE bake_id = ?1 "
+                    "ORDER BY seq");
+        q.bind(1, bake.id);
+        const auto n = static_cast<std::int64_t>(bake.mesh.positions.size());
+        while (q.step()) {
+            LightGroupShades& g = bake.light_groups.emplace_back();
+            g.name = q.text(0);
+            if (!decode(q.blob(1), n, g.irradiance) || !decode(q.blob(2), n, g.radiosity))
+                c.fail("corrupt light group '" + g.name + "' of bake '" + bake.name + "'");
+        }
     }
     transaction.commit();
     return bake;

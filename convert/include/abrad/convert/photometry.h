@@ -67,6 +67,13 @@ struct PhotometricFile {
     std::vector<double> tilt_angles;
     std::vector<double> tilt_factors;
 
+    /// The lamp-tilt multiplier at a luminaire tilt of `tilt_degrees` (visdb::Luminaire::
+    /// tilt_degrees): the TILT=INCLUDE table interpolated linearly, its end values beyond its
+    /// first and last angle; 1 without a table (TILT=NONE, EULUMDAT). The table's angles are
+    /// the luminaire's tilt whatever its lamp-to-luminaire geometry (1-3), which says only how
+    /// the lamp turned when the table was measured.
+    double tilt_multiplier(double tilt_degrees) const;
+
     /// The flux of the web, lm (web.flux()).
     double flux() const { return web.flux(); }
     /// "web 2400 lm, lamps 3000 lm: LOR 0.800 (file states 0.800)" or "web 2400 lm (absolute

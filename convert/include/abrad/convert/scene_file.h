@@ -33,6 +33,9 @@
 //   color = [1.0, 0.9, 0.8]
 //                        # only with flux: relative colour, each >= 0, scaled to luminance 1
 //                        # (Rec. 709: Y = 0.2126 R + 0.7152 G + 0.0722 B)
+//   group = "office"     # only with emittance or flux: the light group of the surfaces it
+//                        # lights (light scenes, --scene-mix); a non-empty name without ',' or
+//                        # '='. Default "emitters". Also on [[emitter]] (objects or rectangles).
 //   A rule needs at least one of reflectance, opacity, emittance, flux. Rules (and emitters that
 //   match objects) apply in file order; a later one overrides an earlier one per property
 //   (emittance and flux are the same property). Surfaces that share a material but end with
@@ -72,6 +75,9 @@
 //   opening = "point"    # file (default: the file's luminous opening) | point | rectangle |
 //   opening_size = [1.2, 0.3]   # disc; rectangle and disc need opening_size = [length, width]
 //                        # (metres, along the luminaire's x and y)
+//   group = "corridor"   # its light group (as in a rule); default the photometric file's stem
+//   A TILT=INCLUDE file's lamp-tilt factor at the luminaire's tilt (its nadir's angle from
+//   straight down) multiplies every candela; a factor 0 there is an error at the table's line.
 //   A malformed photometric file is an ImportError naming that file, its line and field.
 //
 //   [[camera]]
@@ -139,6 +145,7 @@ struct SceneRule {
     std::optional<visdb::Rgb> emittance;    ///< >= 0, W/m² (lm/m² when photometric)
     std::optional<double> flux;             ///< >= 0, lm per luminaire
     visdb::Rgb color{1.0, 1.0, 1.0};        ///< with flux: relative colour of luminance 1
+    std::optional<std::string> group;       ///< light group of the matched emitters
 
     std::string to_string() const;
 };
@@ -154,6 +161,7 @@ struct SceneRectangle {
     std::optional<visdb::Rgb> emittance;  ///< set iff `flux` is not
     std::optional<double> flux;           ///< lm
     visdb::Rgb color{1.0, 1.0, 1.0};      ///< with flux: relative colour of luminance 1
+    std::string group;                    ///< light group ("" = the default, "emitters")
 
     /// E: the emittance, or Φ / (width · height) · color.
     visdb::Rgb exitance() const;

@@ -50,12 +50,35 @@ double segment_crossing(const Patch& p, const glm::dvec3& a, const glm::dvec3& b
 double transmittance(std::span<const Patch> patches, const Bvh& bvh, const glm::dvec3& x,
                      const glm::dvec3& source);
 
+/// A point of a luminous opening and its share of the luminaire's intensity.
+struct OpeningSample {
+    glm::dvec3 point{0.0};  ///< on the opening, world metres
+    double weight = 0.0;    ///< the fraction of the opening's area it stands for (sum 1)
+};
+
+/// The five-times rule: a receiver closer than this many times the opening's size
+/// (LuminousOpening::size) is lit by the opening, not by its centre.
+inline constexpr double kFiveTimes = 5.0;
+/// At most this many cells along each side (rectangle) or rings (disc) of an opening.
+inline constexpr int kMaxOpeningCells = 16;
+
+/// The quadrature points of a flat luminous opening (a rectangle, length along axis_x by
+/// width along axis_y, or a disc or ellipse of diameters length by width, in the plane of
+/// axis_x and axis_y through the photometric centre) for a receiver `distance` metres from
+/// that centre: n = ceil(5 size / distance) cells each way (at most kMaxOpeningCells), two
+/// Gauss-Legendre points each way per cell (rectangle: n × n cells; disc: n rings × 4n
+/// sectors in polar coordinates). Empty when the receiver is at least 5 sizes away or the
+/// opening is a point or not flat (box, cylinders, sphere: point sources).
+std::vector<OpeningSample> opening_samples(const visdb::Luminaire& luminaire, double distance);
+
 /// Exact direct illuminance (lux, RGB) at `x` on a surface with unit normal `n` (its front)
 /// from a luminaire taken as a point source at its photometric centre: I(−ω)·cos θ / d², ω
 /// the unit direction from x to the source at distance d, θ its angle to n, I the luminaire's
 /// intensity toward x, times the transmittance past the patches. 0 when the source is not in
-/// front of x. Exact for a point source; a luminous opening larger than a fifth of d is not
-/// integrated over yet.
+/// front of x. Closer than five times a flat opening's size (opening_samples), the same sum
+/// over the opening's points, each with its weight's share of the intensity and its own
+/// transmittance (a uniform-luminance opening for a cosine web: its exact irradiance up to the
+/// quadrature and the web's interpolation).
 visdb::Rgb point_source_irradiance(const visdb::Luminaire& luminaire,
                                    std::span<const Patch> patches, const Bvh& bvh,
                                    const glm::dvec3& x, const glm::dvec3& n);

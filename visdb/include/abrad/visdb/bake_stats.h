@@ -127,7 +127,9 @@ struct BakeStats {
     std::optional<ExactShadeStats> exact_shade;    ///< without discontinuity meshing
     std::optional<DiscontinuityStats> dm;          ///< with discontinuity meshing
     std::optional<InterreflectionStats> indirect;  ///< with interreflection
-    double seconds_total = 0.0;                    ///< wall seconds of the whole bake
+    /// Wall seconds of the shades per light group (0 when the bake stored none)
+    double seconds_light_groups = 0.0;
+    double seconds_total = 0.0;  ///< wall seconds of the whole bake
     /// Stored keys this build does not know (from other versions), kept as read.
     std::vector<std::pair<std::string, double>> other;
 };
@@ -199,6 +201,7 @@ void indirect_keys(I& i, F& f) {
 }
 template <class S, class F>
 void total_keys(S& s, F& f) {
+    f("seconds_light_groups", s.seconds_light_groups);
     f("seconds_total", s.seconds_total);
 }
 }  // namespace stats_detail

@@ -5,9 +5,11 @@
 // reflectance and opacity dimensionless. Frame: right-handed, Z up. A triangle's front is
 // counter-clockwise (right-hand normal).
 
+#include <cmath>
 #include <cstdint>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <limits>
@@ -95,10 +97,16 @@ struct Material {
     Rgb reflectance{0.5, 0.5, 0.5};
     Rgb emittance{0.0, 0.0, 0.0};
     double opacity = 1.0;
+    /// The light group of an emitting material (scene file `group`; empty: the default,
+    /// kEmitterGroup). Light scenes mix the bake's groups with dimming factors.
+    std::string group{};  // (braced: aggregate initialisers may leave it out)
 
     /// A material emits iff some channel of E is positive.
     bool is_emitter() const { return any_positive(emittance); }
 };
+
+/// The light group of emitting materials whose scene file named none.
+inline constexpr const char* kEmitterGroup = "emitters";
 
 /// An indexed triangle mesh in double precision, metres. Triangles index `positions`.
 struct TriangleMesh {
@@ -153,14 +161,22 @@ struct Luminaire {
     glm::dvec3 axis_z{0.0, 0.0, 1.0};
     double flux_scale = 1.0;          ///< > 0: multiplies every candela
     double maintenance_factor = 1.0;  ///< in (0, 1]: multiplies every candela
-    Rgb color{1.0, 1.0, 1.0};         ///< relative colour of luminance 1
+    /// > 0: the lamp-tilt multiplier of the file's TILT=INCLUDE table at the luminaire's tilt
+    /// (the angle of its nadir from straight down), 1 without a table; multiplies every candela
+    double tilt_factor = 1.0;
+    Rgb color{1.0, 1.0, 1.0};  ///< relative colour of luminance 1
+    /// The light group (scene file `group`; empty: the default, the photometric file's stem).
+    std::string group{};
 
     /// A world direction in the photometric frame.
     glm::dvec3 to_local(const glm::dvec3& d) const {
         return {glm::dot(d, axis_x), glm::dot(d, axis_y), glm::dot(d, axis_z)};
     }
-    /// The web's factor: flux_scale · maintenance_factor.
-    double scale() const { return flux_scale * maintenance_factor; }
+    /// The web's factor: flux_scale · maintenance_factor · tilt_factor.
+    double scale() const { return flux_scale * maintenance_factor * tilt_factor; }
+    /// The luminaire's tilt, degrees in [0, 180]: the angle between its nadir (−axis_z) and
+    /// straight down (−Z); 0 for a downlight as measured.
+    double tilt_degrees() const { return glm::degrees(std::acos(glm::clamp(axis_z.z, -1.0, 1.0))); }
     /// Intensity toward the unit world direction `d`, candela per channel.
     Rgb intensity(const glm::dvec3& d) const {
         return web.intensity(to_local(d)) * scale() * color;
@@ -220,6 +236,15 @@ struct BakeMesh {
     std::vector<glm::vec3> radiosity;   ///< B = E + ρH, W/m² (or lm/m²), per vertex
 };
 
+/// One light group's share of a bake (docs/design.md, "Light scenes"): what the bake's lights
+/// of that group alone give every vertex of BakeMesh. Light is linear in the sources, so the
+/// groups add up to the bake's own shades (to rounding).
+struct LightGroupShades {
+    std::string name;
+    std::vector<glm::vec3> irradiance;  ///< per vertex of the bake's mesh
+    std::vector<glm::vec3> radiosity;   ///< per vertex; the group's emitters' E included
+};
+
 /// A stored bake: its settings, what it measured, and its shaded mesh.
 struct Bake {
     std::int64_t id = 0;  ///< assigned by the store
@@ -229,6 +254,9 @@ struct Bake {
     std::vector<std::pair<std::string, std::string>> parameters;  ///< e.g. {"method","abuffer"}
     BakeStats statistics;                                         ///< what the bake measured
     BakeMesh mesh;
+    /// Per light group, when the scene named groups and had lights of two or more; empty
+    /// otherwise (the whole bake is one group).
+    std::vector<LightGroupShades> light_groups{};
 };
 
 }  // namespace abrad::visdb

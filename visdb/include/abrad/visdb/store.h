@@ -67,7 +67,7 @@ struct BakeSummary {
 };
 
 /// Current schema version written by this build.
-inline constexpr int kSchemaVersion = 3;
+inline constexpr int kSchemaVersion = 4;
 
 /// A handle on one .visdb file. Move-only. Writers take the lock with BEGIN IMMEDIATE and
 /// wait for it, and for readers to finish at COMMIT, up to the busy timeout.
