@@ -38,7 +38,7 @@ ToneMapped bake_of(const ExportJob& job) {
     visdb::Bake b = load_bake_for(job.store, job.args.db, job.args.bake, "export");
     const exporter::ToneMap tone = exposure_for(b, job.scene, job.args.view);
     // --simplify: a light mesh, toned as the bake itself
-    if (job.args.simplify) b.mesh = simplify_mesh(b, *job.args.simplify, "--simplify");
+    if (job.args.simplify) b.mesh = simplify_mesh(b, {.error = *job.args.simplify}, "--simplify");
     return {std::move(b), tone};
 }
 
