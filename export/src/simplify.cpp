@@ -32,6 +32,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -375,12 +377,18 @@ class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
 };
 
 // Stops the decimation once the collapses have spent the error budget.
+// Stops the decimation after the first collapse past the budget, remembering how many came
+// before it.
 class BudgetObserver : public OpenMesh::Decimater::Observer {
   public:
     BudgetObserver(const ModIrradianceBound& bound, double budget)
         : Observer(1), m_bound(bound), m_budget(budget) {}
-    void notify(std::size_t) override {}
-    bool abort() const override { return m_bound.spent() >= m_budget; }
+    void notify(std::size_t step) override {
+        if (m_bound.spent() <= m_budget) within = step;
+    }
+    bool abort() const override { return m_bound.spent() > m_budget; }
+
+    std::size_t within = 0;  ///< collapses carried out within the budget
 
   private:
     const ModIrradianceBound& m_bound;
@@ -626,6 +634,83 @@ visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b, const Context
     return out;
 }
 
+// One decimation of a bake: the OpenMesh mesh with its samples, and what the modules counted.
+struct Decimation {
+    Built b;
+    Context context;
+    double total = 0.0;  // the area-weighted irradiance of the bake (mean of the channels)
+    double spent = 0.0;  // the area-weighted error the collapses added
+    std::size_t within_budget = 0;  // collapses before the first past the budget
+    std::size_t stale = 0;
+};
+
+// Sets up `d` from `in` and decimates it: at most `limit` collapses when given.
+void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
+              std::optional<std::size_t> limit, Decimation& d) {
+    build(in, visdb::local_origin(in.positions), d.b);
+    Mesh& m = d.b.mesh;
+    Context& context = d.context;
+
+    // Samples and the bound: H per vertex, no removed vertex yet
+    m.add_property(context.irradiance);
+    m.add_property(context.radiosity);
+    m.add_property(context.own);
+    m.add_property(context.owned);
+    for (auto v : m.vertices()) {
+        const glm::vec3 h = in.irradiance[m.property(d.b.source, v)];
+        const glm::vec3 r = in.radiosity[m.property(d.b.source, v)];
+        m.property(context.irradiance, v) = Vec3(h.x, h.y, h.z);
+        m.property(context.radiosity, v) = Vec3(r.x, r.y, r.z);
+        m.property(context.own, v) = {m.point(v), Vec3(h.x, h.y, h.z), Vec3(r.x, r.y, r.z), 0.0};
+    }
+    // Each vertex's weight: a third of its faces' area
+    for (auto f : m.faces()) {
+        std::array<Vec3, 3> p;
+        int k = 0;
+        for (auto v : m.fv_range(f)) p[k++] = m.point(v);
+        const double share = ((p[1] - p[0]) % (p[2] - p[0])).norm() / 6.0;
+        for (auto v : m.fv_range(f)) m.property(context.own, v).weight += share;
+    }
+    context.error = options.error;
+    context.refit = options.refit;
+    const double floor = options.floor * brightest(in);
+    context.floor = Vec3(floor, floor, floor);
+    for (auto v : m.vertices()) {
+        const Sample& s = m.property(context.own, v);
+        d.total += s.weight * (s.irradiance[0] + s.irradiance[1] + s.irradiance[2]) / 3.0;
+    }
+    context.budget = options.budget * d.total;
+
+    // Decimate: the quadric keeps the shape (a vertex leaves its faces' planes by at most
+    // 1e-6 of the mesh's size), the irradiance bound orders the collapses and limits them
+    OpenMesh::Decimater::DecimaterT<Mesh> decimater(m);
+    OpenMesh::Decimater::ModQuadricT<Mesh>::Handle quadric;
+    ModIrradianceBound::Handle bound;
+    decimater.add(quadric);
+    decimater.add(bound);
+    Vec3 lo(std::numeric_limits<double>::max());
+    Vec3 hi(std::numeric_limits<double>::lowest());
+    for (auto v : m.vertices()) {
+        lo.minimize(m.point(v));
+        hi.maximize(m.point(v));
+    }
+    const double size = m.n_vertices() ? (hi - lo).norm() : 1.0;
+    decimater.module(quadric).set_max_err(1e-12 * size * size * size * size, true);
+    decimater.module(bound).set_context(&context);
+    if (!decimater.initialize()) throw ExportError("simplify: OpenMesh's decimater did not start");
+    BudgetObserver observer(decimater.module(bound), context.budget);
+    if (context.budget > 0.0) decimater.set_observer(&observer);
+    if (!limit)
+        decimater.decimate();
+    else if (*limit > 0)
+        decimater.decimate(*limit);  // (0 would mean no limit to OpenMesh)
+    m.garbage_collection();
+    if (options.refit) refit(m, context);
+    d.spent = decimater.module(bound).spent();
+    d.within_budget = observer.within;
+    d.stale = decimater.module(bound).stale();
+}
+
 }  // namespace
 
 std::string to_string(const SimplifyStats& s) {
@@ -644,75 +729,25 @@ visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& optio
                          SimplifyStats* stats) {
     const auto start = std::chrono::steady_clock::now();
     check_mesh(in, options);
-    Built b;
-    build(in, visdb::local_origin(in.positions), b);
-    Mesh& m = b.mesh;
-
-    // Samples and the bound: H per vertex, no removed vertex yet
-    Context context;
-    m.add_property(context.irradiance);
-    m.add_property(context.radiosity);
-    m.add_property(context.own);
-    m.add_property(context.owned);
-    for (auto v : m.vertices()) {
-        const glm::vec3 h = in.irradiance[m.property(b.source, v)];
-        const glm::vec3 r = in.radiosity[m.property(b.source, v)];
-        m.property(context.irradiance, v) = Vec3(h.x, h.y, h.z);
-        m.property(context.radiosity, v) = Vec3(r.x, r.y, r.z);
-        m.property(context.own, v) = {m.point(v), Vec3(h.x, h.y, h.z), Vec3(r.x, r.y, r.z), 0.0};
+    auto d = std::make_unique<Decimation>();
+    decimate(in, options, std::nullopt, *d);
+    if (d->context.budget > 0.0 && d->spent > d->context.budget) {
+        // The last collapse went past the budget: the same decimation again (it is
+        // deterministic), stopped before it
+        const std::size_t within = d->within_budget;
+        d = std::make_unique<Decimation>();
+        decimate(in, options, within, *d);
     }
-    // Each vertex's weight: a third of its faces' area
-    for (auto f : m.faces()) {
-        std::array<Vec3, 3> p;
-        int k = 0;
-        for (auto v : m.fv_range(f)) p[k++] = m.point(v);
-        const double share = ((p[1] - p[0]) % (p[2] - p[0])).norm() / 6.0;
-        for (auto v : m.fv_range(f)) m.property(context.own, v).weight += share;
-    }
-    context.error = options.error;
-    context.refit = options.refit;
-    const double floor = options.floor * brightest(in);
-    context.floor = Vec3(floor, floor, floor);
-
-    // Decimate: the quadric keeps the shape (a vertex leaves its faces' planes by at most
-    // 1e-6 of the mesh's size), the irradiance bound orders the collapses and limits them
-    OpenMesh::Decimater::DecimaterT<Mesh> decimater(m);
-    OpenMesh::Decimater::ModQuadricT<Mesh>::Handle quadric;
-    ModIrradianceBound::Handle bound;
-    decimater.add(quadric);
-    decimater.add(bound);
-    Vec3 lo(std::numeric_limits<double>::max());
-    Vec3 hi(std::numeric_limits<double>::lowest());
-    for (auto v : m.vertices()) {
-        lo.minimize(m.point(v));
-        hi.maximize(m.point(v));
-    }
-    const double size = m.n_vertices() ? (hi - lo).norm() : 1.0;
-    decimater.module(quadric).set_max_err(1e-12 * size * size * size * size, true);
-    decimater.module(bound).set_context(&context);
-    double total = 0.0;  // the area-weighted irradiance of the bake (mean of the channels)
-    for (auto v : m.vertices()) {
-        const Sample& s = m.property(context.own, v);
-        total += s.weight * (s.irradiance[0] + s.irradiance[1] + s.irradiance[2]) / 3.0;
-    }
-    context.budget = options.budget * total;
-    if (!decimater.initialize()) throw ExportError("simplify: OpenMesh's decimater did not start");
-    BudgetObserver observer(decimater.module(bound), context.budget);
-    if (context.budget > 0.0) decimater.set_observer(&observer);
-    decimater.decimate();
-    m.garbage_collection();
-    if (options.refit) refit(m, context);
-
-    visdb::BakeMesh out = collect(in, b, context);
+    visdb::BakeMesh out = collect(in, d->b, d->context);
     if (stats) {
         *stats = {
             .triangles_before = in.triangles.size(),
             .triangles_after = out.triangles.size(),
             .vertices_before = in.positions.size(),
             .vertices_after = out.positions.size(),
-            .locked_faces = b.locked_faces,
-            .stale_collapses = decimater.module(bound).stale(),
-            .mean_change = total > 0.0 ? decimater.module(bound).spent() / total : 0.0,
+            .locked_faces = d->b.locked_faces,
+            .stale_collapses = d->stale,
+            .mean_change = d->total > 0.0 ? d->spent / d->total : 0.0,
             .seconds =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
     }

@@ -274,9 +274,9 @@ TEST(Simplify, RefitIsTheLeastSquaresFitOfTheBakesVertices) {
     EXPECT_LT(fitted, 0.5 * baked);
 }
 
-// The budget bounds the area-weighted mean change of irradiance at the bake's vertices (to
-// within the one collapse that reaches it), the statistics report what it spent, and a
-// larger budget removes more.
+// The budget bounds the area-weighted mean change of irradiance at the bake's vertices (the
+// last collapse of a first run goes past it at 0.016, so this checks the second run too),
+// the statistics report what it spent, and a larger budget removes more.
 TEST(Simplify, BudgetBoundsTheAreaWeightedChange) {
     const Field wave = [](double x, double y) { return 2.0 + std::sin(6.0 * x) * y * y + 0.5 * x; };
     const visdb::BakeMesh in = grid(24, wave);
@@ -298,7 +298,7 @@ TEST(Simplify, BudgetBoundsTheAreaWeightedChange) {
         const visdb::BakeMesh out = simplify(in, {.error = 1.0, .budget = budget}, &stats);
         const double change = measured_change(out);
         EXPECT_NEAR(change, stats.mean_change, 1e-9) << "budget " << budget;
-        EXPECT_LE(change, budget * 1.05) << "budget " << budget;
+        EXPECT_LE(change, budget * (1.0 + 1e-9)) << "budget " << budget;
         EXPECT_GT(change, budget * 0.5) << "budget " << budget;
         EXPECT_LT(out.triangles.size(), previous) << "budget " << budget;
         previous = out.triangles.size();
