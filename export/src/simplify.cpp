@@ -6,10 +6,12 @@
 // of the current mesh that contains it; a collapse is legal only when every sample in the
 // faces it changes, the removed vertex included, is reproduced by the new faces' linear
 // interpolation within the bound. So the bound holds at every vertex of the bake, not only
-// at the last one removed. Numeric assumptions: the bake's connected pieces are planar (bake
-// vertices are shared only by faces whose normals agree to 1e-9), barycentric coordinates
-// are computed in double in a local frame around the mesh's centre, and a sample counts as
-// inside a triangle down to a barycentric coordinate of -1e-6.
+// at the last one removed. Options: a budget on the area-weighted mean change (collapses
+// rated by what they add to it), and a least-squares refit of the kept vertices' values
+// (docs/algorithms.md#simplification). Numeric assumptions: the bake's connected pieces are
+// planar (bake vertices are shared only by faces whose normals agree to 1e-9), barycentric
+// coordinates are computed in double in a local frame around the mesh's centre, and a sample
+// counts as inside a triangle down to a barycentric coordinate of -1e-6.
 
 #include "abrad/export/simplify.h"
 
@@ -23,12 +25,15 @@
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
 #include <OpenMesh/Tools/Decimater/ModBaseT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+#include <OpenMesh/Tools/Decimater/Observer.hh>
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -52,6 +57,8 @@ using Vec3 = OpenMesh::Vec3d;
 struct Sample {
     Vec3 position;  // local frame
     Vec3 irradiance;
+    Vec3 radiosity;
+    double weight = 0.0;  // the bake vertex's share of its triangles' area (m²)
 };
 
 // A point's barycentric coordinates in triangle (a, b, c), projected onto its plane; a
@@ -75,26 +82,55 @@ std::array<double, 3> barycentric(const Vec3& p, const Vec3& a, const Vec3& b, c
 
 double min3(const std::array<double, 3>& b) { return std::min({b[0], b[1], b[2]}); }
 
-// A triangle of the mesh as it would be after a collapse: corners and their irradiance.
+// A triangle of the mesh as it would be after a collapse: corners, their irradiance and
+// radiosity, and which corner is the kept vertex v1.
 struct Corner3 {
     std::array<Vec3, 3> p;
     std::array<Vec3, 3> h;
+    std::array<Vec3, 3> b;
+    int pivot = -1;
 };
 
 // The shared state of the decimation: the mesh's properties and the bound.
 struct Context {
-    OpenMesh::VPropHandleT<Vec3> irradiance;            // baked H of the vertex
+    OpenMesh::VPropHandleT<Vec3> irradiance;            // H of the vertex (refitted or baked)
+    OpenMesh::VPropHandleT<Vec3> radiosity;             // B of the vertex (refitted or baked)
+    OpenMesh::VPropHandleT<Sample> own;                 // the vertex as the bake has it
     OpenMesh::FPropHandleT<std::vector<Sample>> owned;  // removed vertices inside the face
     double error = 0.02;
     Vec3 floor{0.0, 0.0, 0.0};  // absolute floor per channel (error excluded)
+    bool refit = false;         // v1's values refitted at each collapse
+    double budget = 0.0;        // the area-weighted error allowed in all (0: no budget)
 };
 
 constexpr double kInside = -1e-6;        // barycentric slack for a sample on an edge
 constexpr double kStraightSine = 1e-7;   // a boundary runs straight through a vertex
 constexpr double kMinAreaRatio = 1e-10;  // a new triangle keeps this fraction of its area
 
+// A sample seen from the fan of a collapse: its interpolated value is a + c × (v1's value).
+struct Located {
+    Vec3 a_h, a_b;  // the other two corners' part, irradiance and radiosity
+    double c = 0.0;
+    const Sample* sample = nullptr;
+    double before = 0.0;  // its error before the collapse (mean over the channels)
+};
+
+// A sample and its error in the current mesh (mean of the channels' absolute errors).
+struct Held {
+    const Sample* sample;
+    double error;
+};
+
+double mean_error(const Vec3& value, const Vec3& baked) {
+    return (std::abs(value[0] - baked[0]) + std::abs(value[1] - baked[1]) +
+            std::abs(value[2] - baked[2])) /
+           3.0;
+}
+
 // The irradiance-bound module: non-binary, its priority the worst sample's error as a
-// fraction of its bound (so collapses that change the field least go first).
+// fraction of its bound (so collapses that change the field least go first). With refit,
+// the kept vertex v1 takes the values that fit the samples of its new faces best (least
+// squares, area-weighted), and every sample of those faces is checked.
 class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
   public:
     using Base = OpenMesh::Decimater::ModBaseT<Mesh>;
@@ -109,43 +145,31 @@ class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
 
     void set_context(const Context* context) { m_context = context; }
 
+    /// Collapses whose bound no longer held when they were carried out (their rating was
+    /// stale: a neighbour's refit after it was rated).
+    std::size_t stale() const { return m_stale; }
+
+    /// The area-weighted error the collapses so far added (the budget's spent part).
+    double spent() const { return m_spent; }
+
     float collapse_priority(const CollapseInfo& ci) override {
-        if (!boundary_kept(ci)) return ILLEGAL_COLLAPSE;
-        const Mesh& m = m_mesh;
-        // New triangles: the faces of v0 but fl and fr, with v0 moved onto v1
-        m_fan.clear();
-        for (auto f : m.vf_range(ci.v0)) {
-            if (f == ci.fl || f == ci.fr) continue;
-            Corner3 before{};
-            Corner3 after{};
-            int k = 0;
-            for (auto v : m.fv_range(f)) {
-                before.p[k] = m.point(v);
-                after.p[k] = v == ci.v0 ? ci.p1 : m.point(v);
-                after.h[k] = m.property(m_context->irradiance, v == ci.v0 ? ci.v1 : v);
-                ++k;
-            }
-            // Refuse a flipped or collapsed triangle
-            const Vec3 n_before = (before.p[1] - before.p[0]) % (before.p[2] - before.p[0]);
-            const Vec3 n_after = (after.p[1] - after.p[0]) % (after.p[2] - after.p[0]);
-            if (!((n_before | n_after) > kMinAreaRatio * (n_before | n_before)))
-                return ILLEGAL_COLLAPSE;
-            m_fan.push_back(after);
+        if (!boundary_kept(ci) || !build_fan(ci)) return ILLEGAL_COLLAPSE;
+        const double worst = rate(ci);
+        if (worst > 1.0) return ILLEGAL_COLLAPSE;
+        if (m_context->budget > 0.0) {
+            if (m_spent + m_delta > m_context->budget) return ILLEGAL_COLLAPSE;
+            return static_cast<float>(std::max(m_delta, 0.0) / m_context->budget);
         }
-        // Every sample the collapse moves must stay within its bound
-        double worst = check(Sample{ci.p0, m.property(m_context->irradiance, ci.v0)});
-        for (auto f : m.vf_range(ci.v0))
-            for (const Sample& s : m.property(m_context->owned, f)) {
-                if (worst > 1.0) break;
-                worst = std::max(worst, check(s));
-            }
-        return worst > 1.0 ? float(ILLEGAL_COLLAPSE) : static_cast<float>(worst);
+        return static_cast<float>(worst);
     }
 
     void preprocess_collapse(const CollapseInfo& ci) override {
         Mesh& m = m_mesh;
+        // Rate it again: a rating is stale when a neighbour's refit moved a value since
+        if (!build_fan(ci) || rate(ci) > 1.0) ++m_stale;
+        m_spent += m_delta;
         m_moving.clear();
-        m_moving.push_back({ci.p0, m.property(m_context->irradiance, ci.v0)});
+        m_moving.push_back(m.property(m_context->own, ci.v0));
         for (auto f : m.vf_range(ci.v0)) {
             auto& owned = m.property(m_context->owned, f);
             m_moving.insert(m_moving.end(), owned.begin(), owned.end());
@@ -155,6 +179,10 @@ class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
 
     void postprocess_collapse(const CollapseInfo& ci) override {
         Mesh& m = m_mesh;
+        if (m_context->refit) {
+            m.property(m_context->irradiance, ci.v1) = m_fit_h;
+            m.property(m_context->radiosity, ci.v1) = m_fit_b;
+        }
         for (const Sample& s : m_moving) {
             Mesh::FaceHandle best;
             double best_inside = -std::numeric_limits<double>::infinity();
@@ -171,6 +199,146 @@ class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
             if (best.is_valid()) m.property(m_context->owned, best).push_back(s);
         }
         m_moving.clear();
+    }
+
+  private:
+    // The triangles around v1 after the collapse: the faces of v0 but fl and fr with v0
+    // moved onto v1, and with refit the other faces of v1 (whose values change with v1's).
+    // False for a triangle that would flip or lose its area.
+    bool build_fan(const CollapseInfo& ci) {
+        const Mesh& m = m_mesh;
+        m_fan.clear();
+        for (auto f : m.vf_range(ci.v0)) {
+            if (f == ci.fl || f == ci.fr) continue;
+            Corner3 after{};
+            std::array<Vec3, 3> before;
+            int k = 0;
+            for (auto v : m.fv_range(f)) {
+                before[k] = m.point(v);
+                const auto value_of = v == ci.v0 ? ci.v1 : v;
+                after.p[k] = v == ci.v0 ? ci.p1 : m.point(v);
+                after.h[k] = m.property(m_context->irradiance, value_of);
+                after.b[k] = m.property(m_context->radiosity, value_of);
+                if (v == ci.v0) after.pivot = k;
+                ++k;
+            }
+            const Vec3 n_before = (before[1] - before[0]) % (before[2] - before[0]);
+            const Vec3 n_after = (after.p[1] - after.p[0]) % (after.p[2] - after.p[0]);
+            if (!((n_before | n_after) > kMinAreaRatio * (n_before | n_before))) return false;
+            m_fan.push_back(after);
+        }
+        m_samples.clear();
+        hold_own(ci.v0);
+        for (auto f : m.vf_range(ci.v0)) hold_owned(f);
+        if (!m_context->refit) return true;
+        hold_own(ci.v1);
+        for (auto f : m.vf_range(ci.v1)) {
+            if (f == ci.fl || f == ci.fr) continue;
+            hold_owned(f);
+            Corner3 same{};
+            int k = 0;
+            for (auto v : m.fv_range(f)) {
+                same.p[k] = m.point(v);
+                same.h[k] = m.property(m_context->irradiance, v);
+                same.b[k] = m.property(m_context->radiosity, v);
+                if (v == ci.v1) same.pivot = k;
+                ++k;
+            }
+            m_fan.push_back(same);
+        }
+        return true;
+    }
+
+    // A vertex's own sample with its current error.
+    void hold_own(Mesh::VertexHandle v) {
+        const Sample& s = m_mesh.property(m_context->own, v);
+        m_samples.push_back(
+            {&s, mean_error(m_mesh.property(m_context->irradiance, v), s.irradiance)});
+    }
+
+    // The samples a face owns with their current errors.
+    void hold_owned(Mesh::FaceHandle f) {
+        const Mesh& m = m_mesh;
+        std::array<Vec3, 3> p, h;
+        int k = 0;
+        for (auto v : m.fv_range(f)) {
+            p[k] = m.point(v);
+            h[k++] = m.property(m_context->irradiance, v);
+        }
+        for (const Sample& s : m.property(m_context->owned, f)) {
+            std::array<double, 3> b = barycentric(s.position, p[0], p[1], p[2]);
+            const Vec3 value =
+                std::isfinite(b[0]) ? b[0] * h[0] + b[1] * h[1] + b[2] * h[2] : s.irradiance;
+            m_samples.push_back({&s, mean_error(value, s.irradiance)});
+        }
+    }
+
+    // The worst sample's error as a fraction of its bound (> 1: out of bound, inf: a sample
+    // outside the fan), v1's values fitted first with refit (m_fit_h, m_fit_b).
+    double rate(const CollapseInfo& ci) {
+        const Mesh& m = m_mesh;
+        m_located.clear();
+        double h_num[3] = {0, 0, 0}, b_num[3] = {0, 0, 0}, den = 0.0;
+        for (const auto& [s, error] : m_samples) {
+            Located l{};
+            l.before = error;
+            if (!locate(*s, l)) return std::numeric_limits<double>::infinity();
+            for (int c = 0; c < 3; ++c) {
+                h_num[c] += s->weight * l.c * (s->irradiance[c] - l.a_h[c]);
+                b_num[c] += s->weight * l.c * (s->radiosity[c] - l.a_b[c]);
+            }
+            den += s->weight * l.c * l.c;
+            m_located.push_back(l);
+        }
+        m_fit_h = m.property(m_context->irradiance, ci.v1);
+        m_fit_b = m.property(m_context->radiosity, ci.v1);
+        if (m_context->refit && den > 0.0)
+            for (int c = 0; c < 3; ++c) {
+                m_fit_h[c] = std::max(h_num[c] / den, 0.0);
+                m_fit_b[c] = std::max(b_num[c] / den, 0.0);
+            }
+        double worst = 0.0;
+        m_delta = 0.0;
+        for (const Located& l : m_located) {
+            double after = 0.0;
+            for (int c = 0; c < 3; ++c) {
+                const double y = l.sample->irradiance[c];
+                const double diff = std::abs(l.a_h[c] + l.c * m_fit_h[c] - y);
+                const double bound = m_context->error * std::max(std::abs(y), m_context->floor[c]);
+                if (diff > 0.0) worst = std::max(worst, bound > 0.0 ? diff / bound : 2.0);
+                after += diff / 3.0;
+            }
+            m_delta += l.sample->weight * (after - l.before);
+        }
+        return worst;
+    }
+
+    // Where the sample lies in the fan: false outside it.
+    bool locate(const Sample& s, Located& out) const {
+        const Corner3* best = nullptr;
+        std::array<double, 3> best_b{};
+        double best_inside = -std::numeric_limits<double>::infinity();
+        for (const Corner3& t : m_fan) {
+            const std::array<double, 3> b = barycentric(s.position, t.p[0], t.p[1], t.p[2]);
+            if (min3(b) > best_inside) {
+                best_inside = min3(b);
+                best_b = b;
+                best = &t;
+            }
+        }
+        if (!best || best_inside < kInside) return false;
+        out.sample = &s;
+        out.a_h = Vec3(0.0);
+        out.a_b = Vec3(0.0);
+        for (int k = 0; k < 3; ++k) {
+            if (k == best->pivot) {
+                out.c = best_b[k];
+                continue;
+            }
+            out.a_h += best_b[k] * best->h[k];
+            out.a_b += best_b[k] * best->b[k];
+        }
+        return true;
     }
 
   private:
@@ -196,36 +364,35 @@ class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
                    kStraightSine * kStraightSine * along.sqrnorm() * off.sqrnorm();
     }
 
-    // The sample's error as a fraction of its bound (> 1: out of bound; inf: outside the fan).
-    double check(const Sample& s) const {
-        const Corner3* best = nullptr;
-        std::array<double, 3> best_b{};
-        double best_inside = -std::numeric_limits<double>::infinity();
-        for (const Corner3& t : m_fan) {
-            const std::array<double, 3> b = barycentric(s.position, t.p[0], t.p[1], t.p[2]);
-            if (min3(b) > best_inside) {
-                best_inside = min3(b);
-                best_b = b;
-                best = &t;
-            }
-        }
-        if (!best || best_inside < kInside) return std::numeric_limits<double>::infinity();
-        double worst = 0.0;
-        for (int c = 0; c < 3; ++c) {
-            const double value =
-                best_b[0] * best->h[0][c] + best_b[1] * best->h[1][c] + best_b[2] * best->h[2][c];
-            const double bound =
-                m_context->error * std::max(std::abs(s.irradiance[c]), m_context->floor[c]);
-            const double diff = std::abs(value - s.irradiance[c]);
-            if (diff > 0.0) worst = std::max(worst, bound > 0.0 ? diff / bound : 2.0);
-        }
-        return worst;
-    }
-
     Mesh& m_mesh;  // the module's mesh (ModBaseT gives it only to non-const members)
     const Context* m_context = nullptr;
-    std::vector<Corner3> m_fan;    // the new triangles of the collapse being rated
-    std::vector<Sample> m_moving;  // samples of the faces a collapse changes
+    std::vector<Corner3> m_fan;      // the new triangles of the collapse being rated
+    std::vector<Held> m_samples;     // the samples whose interpolation it changes
+    std::vector<Located> m_located;  // them, located in m_fan
+    Vec3 m_fit_h, m_fit_b;           // v1's values after the collapse
+    std::vector<Sample> m_moving;    // samples of the faces a collapse changes
+    std::size_t m_stale = 0;
+    double m_delta = 0.0;  // the area-weighted error the rated collapse adds
+    double m_spent = 0.0;
+};
+
+// Stops the decimation once the collapses have spent the error budget.
+// Stops the decimation after the first collapse past the budget, remembering how many came
+// before it.
+class BudgetObserver : public OpenMesh::Decimater::Observer {
+  public:
+    BudgetObserver(const ModIrradianceBound& bound, double budget)
+        : Observer(1), m_bound(bound), m_budget(budget) {}
+    void notify(std::size_t step) override {
+        if (m_bound.spent() <= m_budget) within = step;
+    }
+    bool abort() const override { return m_bound.spent() > m_budget; }
+
+    std::size_t within = 0;  ///< collapses carried out within the budget
+
+  private:
+    const ModIrradianceBound& m_bound;
+    double m_budget;
 };
 
 void check_mesh(const visdb::BakeMesh& mesh, const SimplifyOptions& options) {
@@ -236,6 +403,9 @@ void check_mesh(const visdb::BakeMesh& mesh, const SimplifyOptions& options) {
     if (!(options.floor >= 0.0 && options.floor <= 1.0))
         throw ExportError("simplify: the floor must be in [0, 1], got " +
                           std::to_string(options.floor));
+    if (!(options.budget >= 0.0 && options.budget <= 1.0))
+        throw ExportError("simplify: the budget must be in [0, 1], got " +
+                          std::to_string(options.budget));
     if (mesh.irradiance.empty() && nv > 0)
         throw ExportError("simplify: the bake has no irradiance per vertex");
     if (mesh.normals.size() != nv || mesh.irradiance.size() != nv || mesh.radiosity.size() != nv ||
@@ -296,6 +466,137 @@ void build(const visdb::BakeMesh& in, const glm::dvec3& origin, Built& out) {
     }
 }
 
+// The least-squares refit of the kept vertices' values: the values that minimise the
+// area-weighted squared difference between the simplified mesh's linear interpolation and
+// every sample of the bake (the removed vertices, owned by the faces, and the kept vertices
+// themselves), each sample weighted by its bake vertex's share of the bake's area. Solved
+// per channel by conjugate gradients (Jacobi-preconditioned) on the normal equations, from
+// the baked values; a constant field stays exactly constant, so B = E + ρH still holds.
+class Refit {
+  public:
+    Refit(const Mesh& m, const Context& c) : m_n(m.n_vertices()) {
+        for (auto v : m.vertices()) {
+            m_col.push_back(v.idx());
+            for (auto w : m.vv_range(v)) m_col.push_back(w.idx());
+            m_start.push_back(m_col.size());
+        }
+        m_value.assign(m_col.size(), 0.0);
+        m_rhs.assign(m_n, {});
+        double mean_weight = 0.0;
+        for (auto v : m.vertices()) mean_weight += m.property(c.own, v).weight;
+        mean_weight = m_n ? mean_weight / double(m_n) : 1.0;
+        for (auto v : m.vertices()) {
+            Sample own = m.property(c.own, v);
+            own.weight = std::max(own.weight, 1e-9 * mean_weight);
+            add({v.idx(), v.idx(), v.idx()}, {1.0, 0.0, 0.0}, own);
+        }
+        for (auto f : m.faces()) {
+            std::array<int, 3> id{};
+            std::array<Vec3, 3> p;
+            int k = 0;
+            for (auto v : m.fv_range(f)) {
+                id[k] = v.idx();
+                p[k++] = m.point(v);
+            }
+            for (const Sample& s : m.property(c.owned, f)) {
+                std::array<double, 3> b = barycentric(s.position, p[0], p[1], p[2]);
+                if (!std::isfinite(b[0])) continue;
+                for (double& x : b) x = std::max(x, 0.0);
+                const double sum = b[0] + b[1] + b[2];
+                for (double& x : b) x /= sum;
+                add(id, b, s);
+            }
+        }
+    }
+
+    // Solves for channel `k` (0-2 irradiance, 3-5 radiosity) from `x`, in place.
+    void solve(int k, std::vector<double>& x) const {
+        std::vector<double> diag(m_n), r(m_n), z(m_n), p(m_n), q(m_n);
+        for (std::size_t i = 0; i < m_n; ++i) diag[i] = m_value[m_start[i]];
+        multiply(x, q);
+        double rhs_norm = 0.0;
+        for (std::size_t i = 0; i < m_n; ++i) {
+            r[i] = m_rhs[i][k] - q[i];
+            z[i] = r[i] / diag[i];
+            p[i] = z[i];
+            rhs_norm += m_rhs[i][k] * m_rhs[i][k];
+        }
+        double rz = dot(r, z);
+        for (int it = 0; it < kMaxIterations && dot(r, r) > kTolerance * rhs_norm; ++it) {
+            multiply(p, q);
+            const double pq = dot(p, q);
+            if (!(pq > 0.0)) break;
+            const double alpha = rz / pq;
+            for (std::size_t i = 0; i < m_n; ++i) {
+                x[i] += alpha * p[i];
+                r[i] -= alpha * q[i];
+                z[i] = r[i] / diag[i];
+            }
+            const double rz_next = dot(r, z);
+            for (std::size_t i = 0; i < m_n; ++i) p[i] = z[i] + rz_next / rz * p[i];
+            rz = rz_next;
+        }
+    }
+
+  private:
+    static constexpr int kMaxIterations = 1000;
+    static constexpr double kTolerance = 1e-16;  // on the squared residual, relative
+
+    static double dot(const std::vector<double>& a, const std::vector<double>& b) {
+        double s = 0.0;
+        for (std::size_t i = 0; i < a.size(); ++i) s += a[i] * b[i];
+        return s;
+    }
+
+    void multiply(const std::vector<double>& x, std::vector<double>& y) const {
+        for (std::size_t i = 0; i < m_n; ++i) {
+            double s = 0.0;
+            for (std::size_t e = m_start[i]; e < m_start[i + 1]; ++e)
+                s += m_value[e] * x[std::size_t(m_col[e])];
+            y[i] = s;
+        }
+    }
+
+    double& entry(int row, int col) {
+        for (std::size_t e = m_start[std::size_t(row)]; e < m_start[std::size_t(row) + 1]; ++e)
+            if (m_col[e] == col) return m_value[e];
+        throw ExportError("simplify: internal error, a face's vertices are not neighbours");
+    }
+
+    void add(const std::array<int, 3>& id, const std::array<double, 3>& b, const Sample& s) {
+        for (int a = 0; a < 3; ++a) {
+            if (b[a] == 0.0) continue;
+            for (int c = 0; c < 3; ++c)
+                if (b[c] != 0.0) entry(id[a], id[c]) += s.weight * b[a] * b[c];
+            auto& rhs = m_rhs[std::size_t(id[a])];
+            for (int c = 0; c < 3; ++c) {
+                rhs[c] += s.weight * b[a] * s.irradiance[c];
+                rhs[3 + c] += s.weight * b[a] * s.radiosity[c];
+            }
+        }
+    }
+
+    std::size_t m_n;
+    std::vector<std::size_t> m_start{0};  // row i's entries: [m_start[i], m_start[i + 1])
+    std::vector<int> m_col;               // the row's vertex first, then its neighbours
+    std::vector<double> m_value;
+    std::vector<std::array<double, 6>> m_rhs;
+};
+
+// Replaces the vertices' irradiance and radiosity by their least-squares refit (Refit),
+// clamped at zero.
+void refit(Mesh& m, const Context& c) {
+    const Refit fit(m, c);
+    std::vector<double> x(m.n_vertices());
+    for (int k = 0; k < 6; ++k) {
+        const auto& prop = k < 3 ? c.irradiance : c.radiosity;
+        for (auto v : m.vertices()) x[std::size_t(v.idx())] = m.property(prop, v)[k % 3];
+        fit.solve(k, x);
+        for (auto v : m.vertices())
+            m.property(prop, v)[k % 3] = std::max(x[std::size_t(v.idx())], 0.0);
+    }
+}
+
 // The brightest irradiance channel of any vertex.
 double brightest(const visdb::BakeMesh& mesh) {
     double top = 0.0;
@@ -306,7 +607,7 @@ double brightest(const visdb::BakeMesh& mesh) {
 
 // The simplified bake mesh from the decimated OpenMesh mesh: kept vertices carry the bake's
 // exact position, normal, irradiance and radiosity.
-visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b) {
+visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b, const Context& c) {
     const Mesh& m = b.mesh;
     visdb::BakeMesh out;
     std::vector<std::uint32_t> index(m.n_vertices(), std::numeric_limits<std::uint32_t>::max());
@@ -320,8 +621,10 @@ visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b) {
                 id = static_cast<std::uint32_t>(out.positions.size());
                 out.positions.push_back(in.positions[src]);
                 out.normals.push_back(in.normals[src]);
-                out.irradiance.push_back(in.irradiance[src]);
-                out.radiosity.push_back(in.radiosity[src]);
+                const Vec3& h = m.property(c.irradiance, v);
+                const Vec3& r = m.property(c.radiosity, v);
+                out.irradiance.emplace_back(h[0], h[1], h[2]);
+                out.radiosity.emplace_back(r[0], r[1], r[2]);
             }
             tri[k++] = id;
         }
@@ -331,38 +634,52 @@ visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b) {
     return out;
 }
 
-}  // namespace
-
-std::string to_string(const SimplifyStats& s) {
-    char line[256];
-    std::snprintf(line, sizeof line,
-                  "triangles %zu -> %zu (%.2fx fewer), vertices %zu -> %zu, locked faces %zu, "
-                  "%.3g s",
-                  s.triangles_before, s.triangles_after,
-                  s.triangles_after ? double(s.triangles_before) / double(s.triangles_after) : 0.0,
-                  s.vertices_before, s.vertices_after, s.locked_faces, s.seconds);
-    return line;
-}
-
-visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& options,
-                         SimplifyStats* stats) {
-    const auto start = std::chrono::steady_clock::now();
-    check_mesh(in, options);
+// One decimation of a bake: the OpenMesh mesh with its samples, and what the modules counted.
+struct Decimation {
     Built b;
-    build(in, visdb::local_origin(in.positions), b);
-    Mesh& m = b.mesh;
+    Context context;
+    double total = 0.0;  // the area-weighted irradiance of the bake (mean of the channels)
+    double spent = 0.0;  // the area-weighted error the collapses added
+    std::size_t within_budget = 0;  // collapses before the first past the budget
+    std::size_t stale = 0;
+};
+
+// Sets up `d` from `in` and decimates it: at most `limit` collapses when given.
+void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
+              std::optional<std::size_t> limit, Decimation& d) {
+    build(in, visdb::local_origin(in.positions), d.b);
+    Mesh& m = d.b.mesh;
+    Context& context = d.context;
 
     // Samples and the bound: H per vertex, no removed vertex yet
-    Context context;
     m.add_property(context.irradiance);
+    m.add_property(context.radiosity);
+    m.add_property(context.own);
     m.add_property(context.owned);
     for (auto v : m.vertices()) {
-        const glm::vec3 h = in.irradiance[m.property(b.source, v)];
+        const glm::vec3 h = in.irradiance[m.property(d.b.source, v)];
+        const glm::vec3 r = in.radiosity[m.property(d.b.source, v)];
         m.property(context.irradiance, v) = Vec3(h.x, h.y, h.z);
+        m.property(context.radiosity, v) = Vec3(r.x, r.y, r.z);
+        m.property(context.own, v) = {m.point(v), Vec3(h.x, h.y, h.z), Vec3(r.x, r.y, r.z), 0.0};
+    }
+    // Each vertex's weight: a third of its faces' area
+    for (auto f : m.faces()) {
+        std::array<Vec3, 3> p;
+        int k = 0;
+        for (auto v : m.fv_range(f)) p[k++] = m.point(v);
+        const double share = ((p[1] - p[0]) % (p[2] - p[0])).norm() / 6.0;
+        for (auto v : m.fv_range(f)) m.property(context.own, v).weight += share;
     }
     context.error = options.error;
+    context.refit = options.refit;
     const double floor = options.floor * brightest(in);
     context.floor = Vec3(floor, floor, floor);
+    for (auto v : m.vertices()) {
+        const Sample& s = m.property(context.own, v);
+        d.total += s.weight * (s.irradiance[0] + s.irradiance[1] + s.irradiance[2]) / 3.0;
+    }
+    context.budget = options.budget * d.total;
 
     // Decimate: the quadric keeps the shape (a vertex leaves its faces' planes by at most
     // 1e-6 of the mesh's size), the irradiance bound orders the collapses and limits them
@@ -381,17 +698,56 @@ visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& optio
     decimater.module(quadric).set_max_err(1e-12 * size * size * size * size, true);
     decimater.module(bound).set_context(&context);
     if (!decimater.initialize()) throw ExportError("simplify: OpenMesh's decimater did not start");
-    decimater.decimate();
+    BudgetObserver observer(decimater.module(bound), context.budget);
+    if (context.budget > 0.0) decimater.set_observer(&observer);
+    if (!limit)
+        decimater.decimate();
+    else if (*limit > 0)
+        decimater.decimate(*limit);  // (0 would mean no limit to OpenMesh)
     m.garbage_collection();
+    if (options.refit) refit(m, context);
+    d.spent = decimater.module(bound).spent();
+    d.within_budget = observer.within;
+    d.stale = decimater.module(bound).stale();
+}
 
-    visdb::BakeMesh out = collect(in, b);
+}  // namespace
+
+std::string to_string(const SimplifyStats& s) {
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "triangles %zu -> %zu (%.2fx fewer), vertices %zu -> %zu, locked faces %zu, "
+                  "stale collapses %zu, area-weighted change %.3g, %.3g s",
+                  s.triangles_before, s.triangles_after,
+                  s.triangles_after ? double(s.triangles_before) / double(s.triangles_after) : 0.0,
+                  s.vertices_before, s.vertices_after, s.locked_faces, s.stale_collapses,
+                  s.mean_change, s.seconds);
+    return line;
+}
+
+visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& options,
+                         SimplifyStats* stats) {
+    const auto start = std::chrono::steady_clock::now();
+    check_mesh(in, options);
+    auto d = std::make_unique<Decimation>();
+    decimate(in, options, std::nullopt, *d);
+    if (d->context.budget > 0.0 && d->spent > d->context.budget) {
+        // The last collapse went past the budget: the same decimation again (it is
+        // deterministic), stopped before it
+        const std::size_t within = d->within_budget;
+        d = std::make_unique<Decimation>();
+        decimate(in, options, within, *d);
+    }
+    visdb::BakeMesh out = collect(in, d->b, d->context);
     if (stats) {
         *stats = {
             .triangles_before = in.triangles.size(),
             .triangles_after = out.triangles.size(),
             .vertices_before = in.positions.size(),
             .vertices_after = out.positions.size(),
-            .locked_faces = b.locked_faces,
+            .locked_faces = d->b.locked_faces,
+            .stale_collapses = d->stale,
+            .mean_change = d->total > 0.0 ? d->spent / d->total : 0.0,
             .seconds =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
     }

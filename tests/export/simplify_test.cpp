@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -203,12 +204,115 @@ TEST(Simplify, KeepsSurfacesApart) {
     }
 }
 
+// The triangle of `m` that holds (x, y) in z = 0 and the point's barycentric coordinates
+// in it, or nothing outside.
+std::optional<std::pair<std::size_t, std::array<double, 3>>> locate(const visdb::BakeMesh& m,
+                                                                    double x, double y) {
+    for (std::size_t i = 0; i < m.triangles.size(); ++i) {
+        const glm::u32vec3 t = m.triangles[i];
+        const glm::dvec3 a = m.positions[t.x], b = m.positions[t.y], c = m.positions[t.z];
+        const double d = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+        const double u = ((b.x - x) * (c.y - y) - (c.x - x) * (b.y - y)) / d;
+        const double v = ((c.x - x) * (a.y - y) - (a.x - x) * (c.y - y)) / d;
+        const double w = 1.0 - u - v;
+        if (std::min({u, v, w}) >= -1e-9) return std::make_pair(i, std::array<double, 3>{u, v, w});
+    }
+    return std::nullopt;
+}
+
+// Each vertex's share of the grid's area: a third of its triangles' area.
+std::vector<double> vertex_areas(const visdb::BakeMesh& m) {
+    std::vector<double> w(m.positions.size(), 0.0);
+    for (const glm::u32vec3& t : m.triangles) {
+        const glm::dvec3 a = m.positions[t.x], b = m.positions[t.y], c = m.positions[t.z];
+        const double third = std::abs((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y)) / 6;
+        for (int k = 0; k < 3; ++k) w[t[k]] += third;
+    }
+    return w;
+}
+
+// With refit, the kept vertices' values are the least-squares fit of the bake's vertices
+// (weighted by their area): the gradient of the weighted squared error with respect to
+// every kept value is zero, the fit beats the same mesh with the baked values, and the
+// radiosity (half the irradiance here) is refitted with it.
+TEST(Simplify, RefitIsTheLeastSquaresFitOfTheBakesVertices) {
+    const Field bowl = [](double x, double y) {
+        return 1.0 + 4.0 * ((x - 0.5) * (x - 0.5) + (y - 0.3) * (y - 0.3));
+    };
+    const visdb::BakeMesh in = grid(16, bowl);
+    SimplifyStats stats;
+    const visdb::BakeMesh out = simplify(in, {.error = 0.05, .refit = true}, &stats);
+    ASSERT_LT(out.triangles.size(), in.triangles.size() / 4);
+    const std::vector<double> w = vertex_areas(in);
+    std::vector<double> gradient(out.positions.size(), 0.0);
+    std::vector<double> scale(out.positions.size(), 0.0);
+    double fitted = 0.0;  // weighted squared error of the fit
+    double baked = 0.0;   // ... of the same mesh with the field's values at its vertices
+    for (std::size_t s = 0; s < in.positions.size(); ++s) {
+        const auto at = locate(out, in.positions[s].x, in.positions[s].y);
+        ASSERT_TRUE(at);
+        const glm::u32vec3 t = out.triangles[at->first];
+        const std::array<double, 3>& b = at->second;
+        double h = 0.0;
+        double h_baked = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            h += b[k] * out.irradiance[t[k]].x;
+            h_baked += b[k] * bowl(out.positions[t[k]].x, out.positions[t[k]].y);
+        }
+        const double y = in.irradiance[s].x;
+        for (int k = 0; k < 3; ++k) {
+            gradient[t[k]] += w[s] * b[k] * (h - y);
+            scale[t[k]] += w[s] * b[k] * y;
+        }
+        fitted += w[s] * (h - y) * (h - y);
+        baked += w[s] * (h_baked - y) * (h_baked - y);
+    }
+    for (std::size_t v = 0; v < out.positions.size(); ++v) {
+        EXPECT_LE(std::abs(gradient[v]), 1e-5 * scale[v]) << "vertex " << v;
+        EXPECT_NEAR(out.radiosity[v].z, 0.5f * out.irradiance[v].x, 1e-5 * out.irradiance[v].x);
+    }
+    EXPECT_LT(fitted, 0.5 * baked);
+}
+
+// The budget bounds the area-weighted mean change of irradiance at the bake's vertices (the
+// last collapse of a first run goes past it at 0.016, so this checks the second run too),
+// the statistics report what it spent, and a larger budget removes more.
+TEST(Simplify, BudgetBoundsTheAreaWeightedChange) {
+    const Field wave = [](double x, double y) { return 2.0 + std::sin(6.0 * x) * y * y + 0.5 * x; };
+    const visdb::BakeMesh in = grid(24, wave);
+    const std::vector<double> w = vertex_areas(in);
+    const auto measured_change = [&](const visdb::BakeMesh& out) {
+        double change = 0.0;
+        double total = 0.0;
+        for (std::size_t s = 0; s < in.positions.size(); ++s) {
+            const std::optional<double> h = interpolate(out, in.positions[s].x, in.positions[s].y);
+            EXPECT_TRUE(h);
+            change += w[s] * std::abs(h.value_or(0.0) - in.irradiance[s].x);
+            total += w[s] * in.irradiance[s].x;
+        }
+        return change / total;
+    };
+    std::size_t previous = in.triangles.size() + 1;
+    for (const double budget : {0.001, 0.004, 0.016}) {
+        SimplifyStats stats;
+        const visdb::BakeMesh out = simplify(in, {.error = 1.0, .budget = budget}, &stats);
+        const double change = measured_change(out);
+        EXPECT_NEAR(change, stats.mean_change, 1e-9) << "budget " << budget;
+        EXPECT_LE(change, budget * (1.0 + 1e-9)) << "budget " << budget;
+        EXPECT_GT(change, budget * 0.5) << "budget " << budget;
+        EXPECT_LT(out.triangles.size(), previous) << "budget " << budget;
+        previous = out.triangles.size();
+    }
+}
+
 TEST(Simplify, RefusesBadOptionsAndMeshes) {
     const visdb::BakeMesh in = grid(2, [](double, double) { return 1.0; });
     EXPECT_THROW(simplify(in, {.error = 0.0}), ExportError);
     EXPECT_THROW(simplify(in, {.error = 1.5}), ExportError);
     EXPECT_THROW(simplify(in, {.error = std::numeric_limits<double>::quiet_NaN()}), ExportError);
     EXPECT_THROW(simplify(in, {.error = 0.1, .floor = -1.0}), ExportError);
+    EXPECT_THROW(simplify(in, {.error = 0.1, .budget = -0.1}), ExportError);
+    EXPECT_THROW(simplify(in, {.error = 0.1, .budget = 2.0}), ExportError);
     visdb::BakeMesh broken = in;
     broken.triangles[0].z = 99;
     EXPECT_THROW(simplify(broken, {}), ExportError);

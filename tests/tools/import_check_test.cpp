@@ -119,6 +119,20 @@ TEST(ImportCheck, ACentimetreModelReadAsMetresIsWarnedWithTheUnit) {
     expect_quiet_with(hall, "--unit cm", "size 30 x 20 x 6 m");
 }
 
+// A 16 x 10 x 3 m house drawn in centimetres read as metres is 1.6 km, under the 2 km of the
+// size check; its storey height (300 m, floor to ceiling) gives it away. The fix: --unit cm.
+TEST(ImportCheck, ACentimetreHouseUnder2KmIsWarnedByItsStoreyHeight) {
+    const Room house{.size = {16, 10, 3}, .scale = 100.0, .light_z = 2.99};
+    expect_warned(house, "",
+                  "abrad import: warning: the typical floor-to-ceiling height is 300 m (read in "
+                  "m): over 50 m, implausible for a building; if the file is in cm, import it "
+                  "with --unit cm (3 m)");
+    expect_quiet_with(house, "--unit cm",
+                      "size 16 x 10 x 3 m\nfloor area (faces within 30 degrees of facing up): "
+                      "160 m2 of 476.4 m2\nstorey height (median, up-facing faces to the face "
+                      "above): 3 m\n");
+}
+
 // A 13 mm model (a Collada file in metres declared as millimetres, say): under 0.5 m.
 TEST(ImportCheck, ATinyModelIsWarned) {
     expect_warned({.size = {6, 4, 3}, .light_z = 2.99}, "--unit mm",

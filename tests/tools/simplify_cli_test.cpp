@@ -6,9 +6,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <utility>
 
 #include "run_abrad.h"
 
@@ -40,6 +42,19 @@ class SimplifyCli : public ::testing::Test {
     }
     static void TearDownTestSuite() { fs::remove_all(s_dir); }
 
+    // The triangles and field error (4 x 4 samples a triangle) of the source bake and of
+    // bake `name`, each as {triangles, relative L1}.
+    static std::pair<std::array<double, 2>, std::array<double, 2>> compare(
+        const std::string& name) {
+        const Result before = run("field-error --db " + s_db + " --bake direct --subdivisions 4");
+        const Result after =
+            run("field-error --db " + s_db + " --bake " + name + " --subdivisions 4");
+        EXPECT_EQ(before.status, 0) << before.output;
+        EXPECT_EQ(after.status, 0) << after.output;
+        return {{value_of(before.output, "triangles"), value_of(before.output, "relative_l1")},
+                {value_of(after.output, "triangles"), value_of(after.output, "relative_l1")}};
+    }
+
     static fs::path s_dir;
     static std::string s_db;
 };
@@ -54,16 +69,11 @@ TEST_F(SimplifyCli, SimplifiedBakeKeepsTheFieldErrorWithinTheBound) {
     ASSERT_EQ(simplified.status, 0) << simplified.output;
     EXPECT_NE(simplified.output.find("stored bake 'light'"), std::string::npos)
         << simplified.output;
-    const Result before = run("field-error --db " + s_db + " --bake direct --subdivisions 4");
-    const Result after = run("field-error --db " + s_db + " --bake light --subdivisions 4");
-    ASSERT_EQ(before.status, 0) << before.output;
-    ASSERT_EQ(after.status, 0) << after.output;
-    const double triangles_before = value_of(before.output, "triangles");
-    const double triangles_after = value_of(after.output, "triangles");
-    EXPECT_LT(triangles_after, 0.75 * triangles_before) << after.output;
-    const double error_before = value_of(before.output, "relative_l1");
-    const double error_after = value_of(after.output, "relative_l1");
-    EXPECT_LE(error_after, error_before + kError) << before.output << after.output;
+    const auto [before, after] = compare("light");
+    const auto [triangles_before, error_before] = before;
+    const auto [triangles_after, error_after] = after;
+    EXPECT_LT(triangles_after, 0.75 * triangles_before);
+    EXPECT_LE(error_after, error_before + kError);
     // The export's shortcut writes the same light mesh without storing it
     const std::string ply = (s_dir / "light.ply").string();
     const Result exported =
@@ -73,6 +83,22 @@ TEST_F(SimplifyCli, SimplifiedBakeKeepsTheFieldErrorWithinTheBound) {
         exported.output.find(std::to_string(static_cast<long>(triangles_after)) + " triangles"),
         std::string::npos)
         << exported.output;
+}
+
+// The light-mesh recipe of docs/benchmarks.md (refit, an area-weighted budget, no per-vertex
+// cap): at least 5x fewer triangles for no more than half a point of field error.
+TEST_F(SimplifyCli, BudgetWithRefitGivesFiveTimesFewerTriangles) {
+    const Result simplified = run("simplify --db " + s_db +
+                                  " --bake direct --error 1 --refit true --budget 0.004 "
+                                  "--name budget");
+    ASSERT_EQ(simplified.status, 0) << simplified.output;
+    EXPECT_NE(simplified.output.find("area-weighted change"), std::string::npos)
+        << simplified.output;
+    const auto [before, after] = compare("budget");
+    EXPECT_LE(after[0], before[0] / 5) << after[0] << " triangles of " << before[0];
+    EXPECT_LE(after[1], before[1] + 0.005) << "field error " << after[1] << " of " << before[1];
+    const Result info = run("info --db " + s_db);
+    EXPECT_NE(info.output.find("simplify_budget"), std::string::npos) << info.output;
 }
 
 TEST_F(SimplifyCli, BadBoundsAreRefused) {
@@ -92,6 +118,9 @@ TEST_F(SimplifyCli, BadBoundsAreRefused) {
     const Result floor = run("simplify --db " + s_db + " --error 0.1 --floor 2 --name bad");
     EXPECT_EQ(floor.status, 2) << floor.output;
     EXPECT_NE(floor.output.find("--floor"), std::string::npos) << floor.output;
+    const Result budget = run("simplify --db " + s_db + " --error 0.1 --budget 1.5 --name bad");
+    EXPECT_EQ(budget.status, 2) << budget.output;
+    EXPECT_NE(budget.output.find("--budget"), std::string::npos) << budget.output;
     const Result itself = run("simplify --db " + s_db + " --bake direct --error 0.1 --name direct");
     EXPECT_EQ(itself.status, 2) << itself.output;
     const Result missing = run("simplify --db " + s_db + " --bake nonesuch --error 0.1");

@@ -208,11 +208,11 @@ struct ExportArgs {
 /// extension names; options the format does not use are checked by the export subcommand.
 void export_bake(const ExportArgs& a);
 
-/// The bake's mesh simplified within the relative irradiance bound `error` and the absolute
-/// `floor` (exporter::simplify), its statistics on stderr; `option` names the option that gave
-/// the bound in the bad-input message for a value outside (0, 1] (cmd_simplify.cpp).
-visdb::BakeMesh simplify_mesh(const visdb::Bake& bake, double error, const std::string& option,
-                              double floor = exporter::SimplifyOptions{}.floor);
+/// The bake's mesh simplified with `options` (exporter::simplify), its statistics on stderr;
+/// `option` names the option that gave the bound `options.error` in the bad-input message for
+/// a value outside (0, 1] (cmd_simplify.cpp).
+visdb::BakeMesh simplify_mesh(const visdb::Bake& bake, const exporter::SimplifyOptions& options,
+                              const std::string& option);
 
 /// What render draws (cmd_render.cpp).
 struct RenderArgs {

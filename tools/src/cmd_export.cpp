@@ -44,7 +44,7 @@ ToneMapped bake_of(const ExportJob& job) {
     const exporter::ToneMap tone =
         job.own_tone ? *job.own_tone : exposure_for(b, job.scene, job.args.view);
     // --simplify: a light mesh, toned as the bake itself
-    if (job.args.simplify) b.mesh = simplify_mesh(b, *job.args.simplify, "--simplify");
+    if (job.args.simplify) b.mesh = simplify_mesh(b, {.error = *job.args.simplify}, "--simplify");
     return {std::move(b), tone};
 }
 

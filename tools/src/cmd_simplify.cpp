@@ -18,6 +18,8 @@ struct SimplifyArgs {
     std::string bake;
     double error = 0.0;
     double floor = exporter::SimplifyOptions{}.floor;
+    bool refit = exporter::SimplifyOptions{}.refit;
+    double budget = exporter::SimplifyOptions{}.budget;
     std::string name;
 };
 
@@ -35,12 +37,12 @@ void check_bound(double error, const std::string& option) {
 
 }  // namespace
 
-visdb::BakeMesh simplify_mesh(const visdb::Bake& bake, double error, const std::string& option,
-                              double floor) {
-    check_bound(error, option);
+visdb::BakeMesh simplify_mesh(const visdb::Bake& bake, const exporter::SimplifyOptions& options,
+                              const std::string& option) {
+    check_bound(options.error, option);
     exporter::SimplifyStats stats;
-    visdb::BakeMesh mesh = exporter::simplify(bake.mesh, {.error = error, .floor = floor}, &stats);
-    std::cerr << "simplify: bake '" << bake.name << "' within " << error * 100.0
+    visdb::BakeMesh mesh = exporter::simplify(bake.mesh, options, &stats);
+    std::cerr << "simplify: bake '" << bake.name << "' within " << options.error * 100.0
               << " % of its irradiance: " << exporter::to_string(stats) << "\n";
     return mesh;
 }
@@ -56,6 +58,14 @@ void add_simplify(CLI::App& app) {
                    "Absolute floor of the bound, a fraction of the bake's brightest irradiance: "
                    "where the irradiance is below it, the change allowed is --error times it")
         ->capture_default_str();
+    app.add_option("--refit", s.refit,
+                   "Refit the kept vertices' values by least squares to every vertex of the "
+                   "bake (true) instead of keeping their baked values (false)")
+        ->capture_default_str();
+    app.add_option("--budget", s.budget,
+                   "Area-weighted mean change of irradiance allowed over the whole mesh, a "
+                   "fraction of the bake's area-weighted mean irradiance (0: none)")
+        ->capture_default_str();
     app.add_option("--name", s.name,
                    "Name of the stored simplified bake (default: the bake's name with "
                    "'-simplified'); a bake of that name is replaced");
@@ -66,6 +76,8 @@ int run_simplify(const Invocation&) {
     check_bound(s.error, "--error");
     if (!(s.floor >= 0.0 && s.floor <= 1.0))
         bad_input("--floor " + std::to_string(s.floor) + ": must be in [0, 1]");
+    if (!(s.budget >= 0.0 && s.budget <= 1.0))
+        bad_input("--budget " + std::to_string(s.budget) + ": must be in [0, 1] (e.g. 0.005)");
     visdb::Store store = open_db(s.db);
     store.check_writable();  // before the work
     visdb::Bake b = load_bake_for(store, s.db, s.bake, "simplify");
@@ -74,7 +86,8 @@ int run_simplify(const Invocation&) {
     if (b.name == source)
         bad_input("--name " + b.name +
                   ": the simplified bake would replace the bake it is made of");
-    b.mesh = simplify_mesh(b, s.error, "--error", s.floor);
+    b.mesh = simplify_mesh(
+        b, {.error = s.error, .floor = s.floor, .refit = s.refit, .budget = s.budget}, "--error");
     // The light groups' shades belong to the full mesh's vertices: the light mesh keeps none
     // (a light scene of it: export --simplify --scene-mix from the full bake)
     b.light_groups.clear();
@@ -83,6 +96,8 @@ int run_simplify(const Invocation&) {
     b.parameters.emplace_back("simplified_from", source);
     b.parameters.emplace_back("simplify_error", std::to_string(s.error));
     b.parameters.emplace_back("simplify_floor", std::to_string(s.floor));
+    b.parameters.emplace_back("simplify_refit", s.refit ? "true" : "false");
+    b.parameters.emplace_back("simplify_budget", std::to_string(s.budget));
     b.statistics.triangles = b.mesh.triangles.size();
     b.statistics.vertices = b.mesh.positions.size();
     store.add_bake(b);

@@ -19,6 +19,8 @@ constexpr double kMaxSize = 2000.0;   // metres: larger than any building
 constexpr double kMinSize = 0.5;      // metres: smaller than any room
 constexpr double kUpCos = 0.8660254;  // cos 30°: a face "faces up"
 constexpr double kReach = 0.01;       // metres: a buried light's light stops this close
+constexpr double kMaxStorey = 50.0;   // metres: a floor-to-ceiling height no building has
+constexpr double kStorey = 3.0;       // metres: a typical one
 
 struct Unit {
     const char* name;
@@ -138,14 +140,17 @@ bool stopped_near(const visdb::Scene& scene, const std::vector<Ref>& refs,
     return false;
 }
 
-// The share of each emitter surface's emission stopped within kReach; warnings for > 1/2.
-void buried_lights(const visdb::Scene& scene, SceneCheck& c) {
+// Every triangle of the scene and a BVH over their boxes.
+struct Triangles {
+    std::vector<Ref> refs;
+    radiosity::Bvh bvh;
+};
+
+Triangles all_triangles(const visdb::Scene& scene) {
     std::vector<Ref> refs;
     std::vector<radiosity::Box> boxes;
-    bool any_light = false;
     for (std::uint32_t s = 0; s < scene.surfaces.size(); ++s) {
         const auto& surface = scene.surfaces[s];
-        any_light = any_light || scene.materials[surface.material].is_emitter();
         for (std::uint32_t t = 0; t < surface.mesh.triangles.size(); ++t) {
             radiosity::Box b;
             for (int k = 0; k < 3; ++k)
@@ -154,8 +159,78 @@ void buried_lights(const visdb::Scene& scene, SceneCheck& c) {
             boxes.push_back(b);
         }
     }
+    return {std::move(refs), radiosity::Bvh(std::move(boxes))};
+}
+
+// The area-weighted median height from the up-facing faces to the first face straight above
+// their centroids (faces with nothing above left out), or 0 when none has one: the storey
+// height of a building, 100x in a centimetre model read as metres.
+double storey_height(const visdb::Scene& scene, const Triangles& all, double top) {
+    std::vector<std::pair<double, double>> gaps;  // height, area
+    for (const Ref& r : all.refs) {
+        const auto& mesh = scene.surfaces[r.surface].mesh;
+        const auto& t = mesh.triangles[r.triangle];
+        const glm::dvec3 a = mesh.positions[t.x], b = mesh.positions[t.y], d = mesh.positions[t.z];
+        const glm::dvec3 n2 = glm::cross(b - a, d - a);
+        const double area = 0.5 * glm::length(n2);
+        if (!(area > 0.0) || n2.z < kUpCos * 2.0 * area) continue;
+        const glm::dvec3 centre = (a + b + d) / 3.0;
+        radiosity::Box column;
+        column.grow(centre);
+        column.grow(glm::dvec3(centre.x, centre.y, top));
+        const double eps = 1e-9 * (std::abs(centre.z) + 1.0);
+        double nearest = std::numeric_limits<double>::infinity();
+        all.bvh.query(column, [&](std::size_t i) {
+            const auto& o = scene.surfaces[all.refs[i].surface].mesh;
+            const auto& u = o.triangles[all.refs[i].triangle];
+            const double hit = ray_triangle(centre, glm::dvec3(0.0, 0.0, 1.0), o.positions[u.x],
+                                            o.positions[u.y], o.positions[u.z]);
+            if (hit > eps) nearest = std::min(nearest, hit);
+        });
+        if (std::isfinite(nearest)) gaps.emplace_back(nearest, area);
+    }
+    if (gaps.empty()) return 0.0;
+    std::sort(gaps.begin(), gaps.end());
+    double total = 0.0;
+    for (const auto& g : gaps) total += g.second;
+    double below = 0.0;
+    for (const auto& [height, area] : gaps)
+        if ((below += area) >= 0.5 * total) return height;
+    return gaps.back().first;
+}
+
+// The unit (other than the one read) that makes `metres` closest to `typical`, or null.
+const Unit* likely_unit(const visdb::Scene& scene, double metres, double typical) {
+    const std::string read = scene.sources.empty() ? "m" : scene.sources.front().unit;
+    const double scale = unit_metres(read);
+    const Unit* best = nullptr;
+    double best_score = 0.0;
+    for (const Unit& u : kUnits) {
+        if (u.name == read) continue;
+        const double score = std::abs(std::log(metres * u.metres / scale / typical));
+        if (!best || score < best_score) best = &u, best_score = score;
+    }
+    return best;
+}
+
+std::string storey_warning(const visdb::Scene& scene, double storey) {
+    const std::string read = scene.sources.empty() ? "m" : scene.sources.front().unit;
+    std::string w = "the typical floor-to-ceiling height is " + number(storey) + " m (read in " +
+                    read + "): over " + number(kMaxStorey) + " m, implausible for a building";
+    if (const Unit* u = likely_unit(scene, storey, kStorey))
+        w += "; if the file is in " + std::string(u->name) + ", import it with --unit " + u->name +
+             " (" + number(storey * u->metres / unit_metres(read)) + " m)";
+    return w;
+}
+
+// The share of each emitter surface's emission stopped within kReach; warnings for > 1/2.
+void buried_lights(const visdb::Scene& scene, const Triangles& all, SceneCheck& c) {
+    bool any_light = false;
+    for (const auto& surface : scene.surfaces)
+        any_light = any_light || scene.materials[surface.material].is_emitter();
     if (!any_light) return;
-    const radiosity::Bvh bvh(std::move(boxes));
+    const std::vector<Ref>& refs = all.refs;
+    const radiosity::Bvh& bvh = all.bvh;
     const auto dirs = hemisphere();
     for (std::uint32_t s = 0; s < scene.surfaces.size(); ++s) {
         const auto& surface = scene.surfaces[s];
@@ -216,8 +291,12 @@ SceneCheck check_scene(const visdb::Scene& scene) {
     const double largest = std::max({size.x, size.y, size.z});
     if (largest > kMaxSize || largest < kMinSize)
         c.warnings.push_back(size_warning(scene, largest));
+    const Triangles all = all_triangles(scene);
+    c.storey = storey_height(scene, all, hi.z + 1.0);
+    if (largest <= kMaxSize && c.storey > kMaxStorey)
+        c.warnings.push_back(storey_warning(scene, c.storey));
     if (std::string w = up_warning(scene, c); !w.empty()) c.warnings.push_back(std::move(w));
-    buried_lights(scene, c);
+    buried_lights(scene, all, c);
     return c;
 }
 
@@ -230,6 +309,9 @@ void print_scene_check(const SceneCheck& c, const std::string& command, std::ost
         << " m\n";
     out << "floor area (faces within 30 degrees of facing up): " << number(c.floor_area)
         << " m2 of " << number(c.area) << " m2\n";
+    if (c.storey > 0.0)
+        out << "storey height (median, up-facing faces to the face above): " << number(c.storey)
+            << " m\n";
     for (const auto& w : c.warnings) warn << "abrad " << command << ": warning: " << w << "\n";
 }
 

@@ -16,7 +16,11 @@ struct SceneCheck {
     glm::dvec3 lo{0.0}, hi{0.0};  ///< bounding box, metres (zero for an empty scene)
     double area = 0.0;            ///< all faces, m²
     double floor_area = 0.0;      ///< faces within 30° of facing up (+Z), m²
-    /// One line each, with a suggested fix: size over 2 km or under 0.5 m; less than 5 % of
+    /// The area-weighted median height from the up-facing faces to the first face straight
+    /// above them, metres (0: no face has one).
+    double storey = 0.0;
+    /// One line each, with a suggested fix: size over 2 km or under 0.5 m, or (under 2 km) a
+    /// storey height over 50 m (a centimetre house read as metres); less than 5 % of
     /// the area facing up, or every light facing sideways; a light whose emission is mostly
     /// (over half) stopped within 1 cm by opaque faces (opacity ≥ 0.5).
     std::vector<std::string> warnings;

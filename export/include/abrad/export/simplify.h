@@ -19,6 +19,14 @@ struct SimplifyOptions {
     /// The absolute floor of the bound, a fraction of the brightest irradiance channel of
     /// any vertex: dark areas are held to an absolute error instead of a relative one.
     double floor = 0.1;
+    /// Refit the kept vertices' irradiance and radiosity by least squares to every sample of
+    /// the bake (the removed vertices and the kept ones, weighted by area) after the
+    /// decimation, instead of keeping their baked values.
+    bool refit = false;
+    /// The area-weighted mean change of irradiance the whole simplification may add, as a
+    /// fraction of the bake's area-weighted mean irradiance (0: none; then `error` alone
+    /// limits it). The collapses that add the least go first.
+    double budget = 0.0;
 };
 
 /// What a simplification did.
@@ -28,7 +36,14 @@ struct SimplifyStats {
     std::size_t vertices_before = 0;
     std::size_t vertices_after = 0;
     std::size_t locked_faces =
-        0;                 ///< faces OpenMesh could not join (non-manifold), kept as they are
+        0;  ///< faces OpenMesh could not join (non-manifold), kept as they are
+    /// Collapses carried out past the bound: with refit, a neighbour's refit moved a value
+    /// after the decimater rated them (it re-rates only the removed vertex's neighbours).
+    std::size_t stale_collapses = 0;
+    /// The area-weighted mean change of irradiance at the bake's vertices that the collapses
+    /// made (before the final refit), a fraction of the bake's area-weighted mean: what a
+    /// budget limits.
+    double mean_change = 0.0;
     double seconds = 0.0;  ///< wall seconds
 };
 
