@@ -195,8 +195,7 @@ inline void sample_range(double lo, double hi, int count, int& c0, int& c1) {
 // polygons sharing an edge split its samples exactly (the same x for both, Edge).
 template <int N>
 struct RowSpans {
-    long long lo[N]{}, hi[N]{};
-    bool has[N];
+    long long lo[N]{}, hi[N]{};  // an empty row: lo = hi = 0
     // Pixel columns [full_lo, full_hi) are covered by every sample of the strip
     long long full_lo = 0, full_hi = 0;
     void compute(const Poly2& p, double y0) {
@@ -219,8 +218,8 @@ struct RowSpans {
         full_lo = std::numeric_limits<long long>::min();
         full_hi = std::numeric_limits<long long>::max();
         for (int k = 0; k < N; ++k) {
-            has[k] = xl[k] < xr[k];
-            if (!has[k]) {
+            if (!(xl[k] < xr[k])) {
+                lo[k] = hi[k] = 0;
                 full_hi = full_lo;
                 continue;
             }
@@ -243,7 +242,6 @@ struct RowSpans {
         }
         const long long base = static_cast<long long>(i) * N;
         for (int k = 0; k < N; ++k) {
-            if (!has[k]) continue;
             const int c0 =
                 static_cast<int>(std::clamp(lo[k] - base, 0LL, static_cast<long long>(N)));
             const int c1 =
@@ -337,9 +335,12 @@ class LocalIds {
 // Rasterization of one clipped, projected patch piece onto one face.
 
 template <int S>
+class ClosedPixels;  // below: occlusion culling
+
+template <int S>
 void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
                        std::uint32_t patch, FragmentBuffer<S>& out, std::size_t& undersampled,
-                       const float* closed_depth) {
+                       const ClosedPixels<S>* closed) {
     const auto dmin = static_cast<float>(plane.fallback);
     const int W = hc.width(face), H = hc.height(face);
     const auto [ymin, ymax] = y_extent(p);
@@ -373,7 +374,7 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
         for (int i = i0; i < i1; ++i) {
             const std::size_t pixel = base + static_cast<std::size_t>(j * W + i);
             // Behind an opaque cover nearer than the whole piece: PropFF gives it nothing
-            if (closed_depth && closed_depth[pixel] < dmin) continue;
+            if (closed && closed->closed_nearer(pixel, dmin)) continue;
             long long count, sum_x, sum_y;
             const Mask<S> mask = coarse.mask(i, count, sum_x, sum_y);
             double sx, sy;
@@ -613,12 +614,13 @@ class ClosedPixels {
         const std::size_t base = hc.face_offset(face);
         for (int j = j0; j < j1; ++j)
             for (int i = i0; i < i1; ++i)
-                if (!(m_closed_depth[base + static_cast<std::size_t>(j * W + i)] < d)) return false;
+                if (!closed_nearer(base + static_cast<std::size_t>(j * W + i), d)) return false;
         return true;
     }
 
-    // Per pixel, the depth behind which it is closed (infinity while open).
-    const float* depths() const { return m_closed_depth.data(); }
+    // True when `pixel` is closed nearer than depth `d`: a fragment there at `d` or deeper gets
+    // nothing.
+    bool closed_nearer(std::size_t pixel, float d) const { return m_closed_depth[pixel] < d; }
 
     // Adds the coverage of an opaque patch's fragments [first, end).
     void add(const FragmentBuffer<S>& buffer, std::size_t first) {
@@ -741,7 +743,7 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
                 rasterize_points(hc, face, p, plane, local_id, buffer);
             else
                 rasterize_abuffer<S>(hc, face, p, plane, local_id, buffer,
-                                     result.undersampled_pixels, cull ? closed.depths() : nullptr);
+                                     result.undersampled_pixels, cull ? &closed : nullptr);
             if (options.targets) retarget(id, face, first);
             if (opaque) closed.add(buffer, first);
         });
