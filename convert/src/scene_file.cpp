@@ -514,23 +514,78 @@ visdb::LuminousOpening read_opening(const TableReader& reader, const visdb::Lumi
     return o;
 }
 
+/// The keys of a [[luminaire]] placed by the model (object/layer), read into `p`; those of a
+/// luminaire at a position (position, count, step) are refused.
+void read_placement_keys(const TableReader& reader, SceneLuminairePlacement& p) {
+    const std::string section = "[[luminaire]]";
+    for (const char* key : {"position", "count", "step"}) {
+        if (reader.has(key)) {
+            reader.fail(reader.line(key), reader.name(key) +
+                                              " cannot be combined with 'object' or 'layer' (the "
+                                              "model's instances place the luminaires)");
+        }
+    }
+    p.match.object = reader.string("object");
+    p.match.layer = reader.string("layer");
+    p.match_key = p.match.object ? "object" : "layer";
+    p.match_line = reader.line(p.match_key);
+    for (const char* key : {"object", "layer"}) {
+        const auto glob = reader.string(key);
+        if (glob && glob->empty()) reader.fail(reader.line(key), reader.name(key) + " is empty");
+    }
+    if (const auto instances = reader.string("instances")) {
+        if (*instances != "pieces" && *instances != "objects") {
+            reader.fail(reader.line("instances"), reader.name("instances") +
+                                                      " must be pieces or objects, got " +
+                                                      in_quotes(*instances));
+        }
+        p.per_object = *instances == "objects";
+    }
+    if (const auto mounting = reader.string("mounting")) {
+        if (*mounting != "center" && *mounting != "surface") {
+            reader.fail(reader.line("mounting"), reader.name("mounting") +
+                                                     " must be center or surface, got " +
+                                                     in_quotes(*mounting));
+        }
+        p.mounting = *mounting == "surface" ? SceneLuminairePlacement::Mounting::Surface
+                                            : SceneLuminairePlacement::Mounting::Center;
+    }
+    p.keep_geometry = reader.boolean("keep_geometry").value_or(false);
+}
+
 /// A [[luminaire]]: its photometric file read (relative to the scene file's folder), its frame
-/// resolved, one SceneLuminaire for each of its `count`.
+/// resolved, one SceneLuminaire for each of its `count`; or, placed by the model (object/layer),
+/// one SceneLuminairePlacement resolved later by apply_scene_file.
 void read_luminaire(const std::string& file, const toml::table& table, bool allow_outside_refs,
                     SceneFile& scene) {
     const std::string section = "[[luminaire]]";
     const TableReader reader(
         file, table, section,
         {"file", "name", "position", "rotation", "target", "count", "step", "flux_scale",
-         "maintenance_factor", "color", "opening", "opening_size", "group"});
+         "maintenance_factor", "color", "opening", "opening_size", "group", "object", "layer",
+         "instances", "mounting", "keep_geometry"});
     const std::size_t line = reader.line();
-    for (const char* key : {"file", "position"}) {
-        if (!reader.has(key)) reader.fail(line, section + " needs '" + key + "'");
+    const bool placed = reader.has("object") || reader.has("layer");
+    if (!reader.has("file")) reader.fail(line, section + " needs 'file'");
+    if (!placed && !reader.has("position")) {
+        reader.fail(line, section +
+                              " needs 'position', or 'object' or 'layer' to place it at "
+                              "the model's instances");
     }
+    if (!placed) {
+        for (const char* key : {"instances", "mounting", "keep_geometry"}) {
+            if (reader.has(key)) {
+                reader.fail(reader.line(key), reader.name(key) + " needs 'object' or 'layer'");
+            }
+        }
+    }
+    SceneLuminairePlacement placement;
+    placement.line = line;
+    if (placed) read_placement_keys(reader, placement);
     const std::string ref = *reader.string("file");
     if (ref.empty()) reader.fail(reader.line("file"), reader.name("file") + " is empty");
     visdb::Luminaire l;
-    l.position = *reader.vec3("position");
+    if (!placed) l.position = *reader.vec3("position");
     const auto rotation = reader.vec3("rotation");
     const auto target = reader.vec3("target");
     if (rotation && target) {
@@ -539,7 +594,8 @@ void read_luminaire(const std::string& file, const toml::table& table, bool allo
                                                ") and 'target'; give one");
     }
     if (rotation) set_rotation(l, *rotation);
-    if (target) {
+    if (target && placed) placement.target = target;
+    if (target && !placed) {
         const glm::dvec3 aim = *target - l.position;
         if (!(glm::length(aim) > 0.0)) {
             reader.fail(reader.line("target"), reader.name("target") + " equals 'position'");
@@ -582,9 +638,10 @@ void read_luminaire(const std::string& file, const toml::table& table, bool allo
                                        "photometric file");
     }
     const PhotometricFile photometry = read_photometric_file(resolved);
-    // TILT=INCLUDE: the lamp-tilt multiplier at the luminaire's tilt as placed
+    // TILT=INCLUDE: the lamp-tilt multiplier at the luminaire's tilt as placed (an aimed
+    // placement's instances: each at its own aim, in apply_scene_file)
     l.tilt_factor = photometry.tilt_multiplier(l.tilt_degrees());
-    if (!(l.tilt_factor > 0.0)) {
+    if (!(l.tilt_factor > 0.0) && !placement.target) {
         reader.fail(line, section + " tilted " + fmt(l.tilt_degrees()) +
                               " degrees gives no light: " + ref +
                               "'s tilt table gives the factor 0 there");
@@ -596,6 +653,15 @@ void read_luminaire(const std::string& file, const toml::table& table, bool allo
     const std::string name = reader.string("name").value_or(
         std::filesystem::path(ref).stem().string() + " (line " + std::to_string(line) + ")");
     if (name.empty()) reader.fail(reader.line("name"), reader.name("name") + " is empty");
+    if (placed) {
+        l.name = name;
+        placement.luminaire = std::move(l);
+        placement.flux_report = photometry.flux_report();
+        placement.tilt_angles = photometry.tilt_angles;
+        placement.tilt_factors = photometry.tilt_factors;
+        scene.placements.push_back(std::move(placement));
+        return;
+    }
     const auto n = static_cast<int>(count);
     for (int i = 0; i < n; ++i) {
         SceneLuminaire sl;
@@ -796,6 +862,241 @@ void add_luminaires(const SceneFile& file, visdb::Scene& scene, const Note& note
     }
 }
 
+/// The luminaires of one [[luminaire]] placed by the model, resolved against the scene.
+struct PlacedLuminaires {
+    const SceneLuminairePlacement* placement = nullptr;
+    std::vector<LuminaireInstance> instances;
+    std::vector<visdb::Luminaire> luminaires;  ///< one per instance, same order
+};
+
+/// Where the unit `aim` from the centre of the box [lo, hi] leaves it.
+glm::dvec3 box_exit(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& aim) {
+    const glm::dvec3 half = 0.5 * (hi - lo);
+    double t = HUGE_VAL;
+    for (int k = 0; k < 3; ++k) {
+        if (aim[k] != 0.0) t = std::min(t, half[k] / std::abs(aim[k]));
+    }
+    return 0.5 * (lo + hi) + t * aim;
+}
+
+/// The luminaire of one instance: the placement's luminaire at the instance's reference point,
+/// aimed by its target (each instance its own frame and tilt factor) or its rotation.
+visdb::Luminaire place_at(const SceneLuminairePlacement& p, const LuminaireInstance& instance,
+                          const std::string& path) {
+    visdb::Luminaire l = p.luminaire;
+    const glm::dvec3 centre = 0.5 * (instance.min + instance.max);
+    const auto fail = [&](const std::string& why) {
+        throw ImportError(path, p.line,
+                          "[[luminaire]] instance of " + in_quotes(instance.object) + " at " +
+                              fmt(centre) + ": " + why);
+    };
+    glm::dvec3 aim = -l.axis_z;  // the nadir of the rotation, straight down without one
+    if (p.target) {
+        if (!(glm::length(*p.target - centre) > 0.0)) fail("'target' is its centre");
+        aim = glm::normalize(*p.target - centre);
+    }
+    l.position = p.mounting == SceneLuminairePlacement::Mounting::Surface
+                     ? box_exit(instance.min, instance.max, aim)
+                     : centre;
+    if (p.target) {
+        if (!(glm::length(*p.target - l.position) > 0.0)) fail("'target' is its reference point");
+        set_aim(l, glm::normalize(*p.target - l.position));
+        PhotometricFile tilt;
+        tilt.tilt_angles = p.tilt_angles;
+        tilt.tilt_factors = p.tilt_factors;
+        l.tilt_factor = tilt.tilt_multiplier(l.tilt_degrees());
+        if (!(l.tilt_factor > 0.0)) {
+            fail("tilted " + fmt(l.tilt_degrees()) + " degrees it gives no light: " + l.file +
+                 "'s tilt table gives the factor 0 there");
+        }
+    }
+    return l;
+}
+
+/// Resolves every placement of `file` against the surfaces as imported; throws ImportError at
+/// the key of a glob that matches nothing.
+std::vector<PlacedLuminaires> place_luminaires(const SceneFile& file, const visdb::Scene& scene) {
+    std::vector<PlacedLuminaires> placed;
+    for (const SceneLuminairePlacement& p : file.placements) {
+        PlacedLuminaires r;
+        r.placement = &p;
+        r.instances = placed_instances(p, scene);
+        if (r.instances.empty()) {
+            throw ImportError(file.path, p.match_line,
+                              "'" + p.match_key + "' in [[luminaire]] matches no surface (" +
+                                  p.match.to_string() + ")");
+        }
+        const std::size_t n = r.instances.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            r.luminaires.push_back(place_at(p, r.instances[i], file.path));
+            if (n > 1) r.luminaires.back().name += " " + std::to_string(i + 1);
+        }
+        placed.push_back(std::move(r));
+    }
+    return placed;
+}
+
+/// Refuses placed luminaires whose names another luminaire of the scene or the file has.
+void check_placed_names(const SceneFile& file, const visdb::Scene& scene,
+                        const std::vector<PlacedLuminaires>& placed) {
+    std::map<std::string, std::size_t> lines;  // name -> line of the file that gives it
+    for (const SceneLuminaire& l : file.luminaires) lines.emplace(l.luminaire.name, l.line);
+    std::set<std::string> existing;
+    for (const auto& l : scene.luminaires) existing.insert(l.name);
+    for (const PlacedLuminaires& r : placed) {
+        for (const visdb::Luminaire& l : r.luminaires) {
+            if (existing.count(l.name) > 0) {
+                throw ImportError(
+                    file.path, r.placement->line,
+                    "luminaire " + in_quotes(l.name) + " already exists in the scene");
+            }
+            const auto [it, added] = lines.emplace(l.name, r.placement->line);
+            if (!added) {
+                throw ImportError(file.path, r.placement->line,
+                                  "luminaire " + in_quotes(l.name) +
+                                      " is already defined at line " + std::to_string(it->second));
+            }
+        }
+    }
+}
+
+/// Appends the placed luminaires to the scene with a note for each table: how many instances of
+/// what, the flux, and what became of their geometry.
+template <class Note>
+void add_placed_luminaires(const std::vector<PlacedLuminaires>& placed, visdb::Scene& scene,
+                           const Note& note) {
+    for (const PlacedLuminaires& r : placed) {
+        const SceneLuminairePlacement& p = *r.placement;
+        std::set<std::string> objects;
+        std::set<std::size_t> surface_set;
+        for (const LuminaireInstance& in : r.instances) {
+            objects.insert(in.object);
+            surface_set.insert(in.surfaces.begin(), in.surfaces.end());
+        }
+        const std::size_t surfaces = surface_set.size();
+        const visdb::Luminaire& first = r.luminaires.front();
+        const std::size_t n = r.luminaires.size();
+        note(p.line, "luminaire " + in_quotes(first.name) +
+                         (n > 1 ? " and " + std::to_string(n - 1) + " more" : std::string()) +
+                         " placed at " + std::to_string(n) + " instance" + (n == 1 ? "" : "s") +
+                         " (" + p.match.to_string() + ": " + std::to_string(objects.size()) +
+                         " object" + (objects.size() == 1 ? "" : "s") + ", " +
+                         std::to_string(surfaces) + " surface" + (surfaces == 1 ? "" : "s") +
+                         (p.keep_geometry ? ", kept" : ", removed") + "): " + first.file + ": " +
+                         p.flux_report + "; placed " + fmt(first.flux()) + " lm each (scale " +
+                         fmt(first.scale()) + ")");
+        for (const visdb::Luminaire& l : r.luminaires) scene.luminaires.push_back(l);
+    }
+}
+
+/// Union-find over indices, for the pieces of placed_instances.
+class DisjointSets {
+  public:
+    explicit DisjointSets(std::size_t n) : m_parent(n) {
+        for (std::size_t i = 0; i < n; ++i) m_parent[i] = i;
+    }
+    std::size_t find(std::size_t i) {
+        while (m_parent[i] != i) {
+            m_parent[i] = m_parent[m_parent[i]];
+            i = m_parent[i];
+        }
+        return i;
+    }
+    void join(std::size_t a, std::size_t b) {
+        a = find(a);
+        b = find(b);
+        if (a != b) m_parent[std::max(a, b)] = std::min(a, b);
+    }
+
+  private:
+    std::vector<std::size_t> m_parent;
+};
+
+/// The pieces of the surfaces `of` (one object): triangles sharing a vertex, one piece each.
+std::vector<LuminaireInstance> pieces_of(const visdb::Scene& scene,
+                                         const std::vector<std::size_t>& of) {
+    std::vector<LuminaireInstance> pieces;
+    for (const std::size_t s : of) {
+        const visdb::TriangleMesh& mesh = scene.surfaces[s].mesh;
+        DisjointSets sets(mesh.positions.size());
+        for (const auto& t : mesh.triangles) {
+            sets.join(t.x, t.y);
+            sets.join(t.x, t.z);
+        }
+        std::map<std::size_t, std::size_t> piece_of_root;  // root vertex -> index in pieces
+        for (const auto& t : mesh.triangles) {
+            const auto [it, added] = piece_of_root.try_emplace(sets.find(t.x), pieces.size());
+            if (added) {
+                pieces.push_back(
+                    {scene.surfaces[s].name, glm::dvec3(HUGE_VAL), glm::dvec3(-HUGE_VAL), {s}, 0});
+            }
+            LuminaireInstance& piece = pieces[it->second];
+            for (int k = 0; k < 3; ++k) {
+                piece.min = glm::min(piece.min, mesh.positions[t[k]]);
+                piece.max = glm::max(piece.max, mesh.positions[t[k]]);
+            }
+            ++piece.triangles;
+        }
+    }
+    return pieces;
+}
+
+/// Joins pieces whose closed boxes intersect (transitively), or all of them (`all`).
+std::vector<LuminaireInstance> join_pieces(std::vector<LuminaireInstance> pieces, bool all) {
+    const std::size_t n = pieces.size();
+    DisjointSets sets(n);
+    if (all) {
+        for (std::size_t i = 1; i < n; ++i) sets.join(0, i);
+    } else {
+        // Sweep along the axis the pieces spread most: sort by the box's low end, test the
+        // boxes that start before one ends
+        glm::dvec3 lo(HUGE_VAL);
+        glm::dvec3 hi(-HUGE_VAL);
+        for (const auto& p : pieces) {
+            lo = glm::min(lo, p.min);
+            hi = glm::max(hi, p.min);
+        }
+        const glm::dvec3 spread = hi - lo;
+        const int axis = spread.x >= spread.y && spread.x >= spread.z ? 0
+                         : spread.y >= spread.z                       ? 1
+                                                                      : 2;
+        std::vector<std::size_t> order(n);
+        for (std::size_t i = 0; i < n; ++i) order[i] = i;
+        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+            return pieces[a].min[axis] < pieces[b].min[axis];
+        });
+        for (std::size_t a = 0; a < n; ++a) {
+            const LuminaireInstance& p = pieces[order[a]];
+            for (std::size_t b = a + 1; b < n && pieces[order[b]].min[axis] <= p.max[axis]; ++b) {
+                const LuminaireInstance& q = pieces[order[b]];
+                bool meet = true;
+                for (int k = 0; k < 3; ++k)
+                    meet = meet && q.min[k] <= p.max[k] && p.min[k] <= q.max[k];
+                if (meet) sets.join(order[a], order[b]);
+            }
+        }
+    }
+    std::vector<LuminaireInstance> joined;
+    std::map<std::size_t, std::size_t> index_of_root;
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto [it, added] = index_of_root.try_emplace(sets.find(i), joined.size());
+        if (added) {
+            joined.push_back(std::move(pieces[i]));
+            continue;
+        }
+        LuminaireInstance& in = joined[it->second];
+        in.min = glm::min(in.min, pieces[i].min);
+        in.max = glm::max(in.max, pieces[i].max);
+        in.triangles += pieces[i].triangles;
+        in.surfaces.insert(in.surfaces.end(), pieces[i].surfaces.begin(), pieces[i].surfaces.end());
+    }
+    for (LuminaireInstance& in : joined) {
+        std::sort(in.surfaces.begin(), in.surfaces.end());
+        in.surfaces.erase(std::unique(in.surfaces.begin(), in.surfaces.end()), in.surfaces.end());
+    }
+    return joined;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -820,6 +1121,41 @@ std::string SurfaceMatch::to_string() const {
     add("layer", layer);
     add("material", material);
     return s;
+}
+
+std::vector<LuminaireInstance> placed_instances(const SceneLuminairePlacement& placement,
+                                                const visdb::Scene& scene) {
+    // The matched surfaces by object name (a map: instances come out in name order)
+    std::map<std::string, std::vector<std::size_t>> by_object;
+    for (std::size_t i = 0; i < scene.surfaces.size(); ++i) {
+        if (placement.match.matches(scene.surfaces[i], std::string()))
+            by_object[scene.surfaces[i].name].push_back(i);
+    }
+    std::vector<LuminaireInstance> instances;
+    for (const auto& [object, surfaces] : by_object) {
+        std::vector<LuminaireInstance> joined =
+            join_pieces(pieces_of(scene, surfaces), placement.per_object);
+        std::sort(joined.begin(), joined.end(),
+                  [](const LuminaireInstance& a, const LuminaireInstance& b) {
+                      const glm::dvec3 ca = a.min + a.max;
+                      const glm::dvec3 cb = b.min + b.max;
+                      return std::tie(ca.x, ca.y, ca.z) < std::tie(cb.x, cb.y, cb.z);
+                  });
+        for (auto& in : joined) instances.push_back(std::move(in));
+    }
+    return instances;
+}
+
+std::string SceneLuminairePlacement::to_string() const {
+    const visdb::Luminaire& l = luminaire;
+    std::string s = "luminaire line " + std::to_string(line) + ": " + in_quotes(l.name) + " " +
+                    l.file + " at the " + (per_object ? "objects" : "pieces") + " of " +
+                    match.to_string() + " (mounting " +
+                    (mounting == Mounting::Surface ? "surface" : "center") +
+                    (keep_geometry ? ", geometry kept)" : ", geometry removed)");
+    s += target ? " aimed at " + fmt(*target) : " nadir toward " + fmt(-l.axis_z);
+    return s + " scale " + fmt(l.flux_scale) + " x " + fmt(l.maintenance_factor) + " opening " +
+           visdb::to_string(l.opening.shape) + "; " + flux_report;
 }
 
 std::string SceneRule::to_string() const {
@@ -873,7 +1209,7 @@ bool SceneFile::uses_flux() const {
     for (const auto& r : rectangles) {
         if (r.flux) return true;
     }
-    return !luminaires.empty();
+    return !luminaires.empty() || !placements.empty();
 }
 
 bool SceneFile::is_photometric() const { return photometric.value_or(uses_flux()); }
@@ -899,6 +1235,7 @@ std::string SceneFile::to_string() const {
     }
     for (const auto& g : grids) s += g.to_string() + "\n";
     for (const auto& l : luminaires) s += l.to_string() + "\n";
+    for (const auto& p : placements) s += p.to_string() + "\n";
     return s;
 }
 
@@ -1033,6 +1370,9 @@ SceneFile read_scene_file(const std::filesystem::path& path, bool allow_outside_
         for (const auto& l : scene.luminaires) {
             if (flux_line == 0 || l.line < flux_line) flux_line = l.line;
         }
+        for (const auto& p : scene.placements) {
+            if (flux_line == 0 || p.line < flux_line) flux_line = p.line;
+        }
         if (flux_line > 0) {
             throw ImportError(file, flux_line,
                               "'flux' (lumens) or a luminaire needs photometric mode, but the "
@@ -1139,6 +1479,9 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
     }
 
     check_luminaire_names(file, scene);
+    // Luminaires placed by the model, at instances of the surfaces as imported
+    const std::vector<PlacedLuminaires> placed = place_luminaires(file, scene);
+    check_placed_names(file, scene, placed);
 
     // Exclusions
     std::vector<bool> excluded(n_surfaces, false);
@@ -1163,6 +1506,18 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
                           std::to_string(names.size()) + " surface" +
                           (names.size() == 1 ? "" : "s") +
                           (names.empty() ? std::string() : ": " + name_list(names)));
+    }
+    // The geometry of placed luminaires, unless kept
+    for (const PlacedLuminaires& r : placed) {
+        if (r.placement->keep_geometry) continue;
+        for (const LuminaireInstance& in : r.instances) {
+            for (const std::size_t i : in.surfaces) {
+                if (excluded[i]) continue;
+                excluded[i] = true;
+                ++report.surfaces_excluded;
+                if (first_exclude_line == 0) first_exclude_line = r.placement->line;
+            }
+        }
     }
     if (n_surfaces > 0 && report.surfaces_excluded == n_surfaces) {
         throw ImportError(path, first_exclude_line,
@@ -1367,7 +1722,9 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
     for (auto& g : grids) scene.grids.push_back(std::move(g));
     report.grids = grids.size();
     add_luminaires(file, scene, note);
+    add_placed_luminaires(placed, scene, note);
     report.luminaires = file.luminaires.size();
+    for (const PlacedLuminaires& r : placed) report.luminaires += r.luminaires.size();
     if (set_unit) scene.emittance_unit = file.is_photometric() ? "lm/m2" : "W/m2";
 
     // Notes in file order (those about the whole file last)

@@ -61,7 +61,8 @@
 //   file = "downlight.ies"      # required: .ies (IES LM-63) or .ldt (EULUMDAT), relative to the
 //                        # scene file's folder and inside it (unless --allow-outside-refs)
 //   name = "DL"          # unique among the luminaires; default the file's stem and the line
-//   position = [3.0, 2.0, 2.8]  # required: the photometric centre, metres (after the shift)
+//   position = [3.0, 2.0, 2.8]  # the photometric centre, metres (after the shift);
+//                        # required unless object/layer place it (below)
 //   rotation = [0, 30, 90]      # degrees about world x, then y, then z (R = Rz Ry Rx), taking
 //                        # the photometric frame (x = C0, z up, light toward -z) to the world
 //   target = [3.0, 2.0, 0.0]    # or: aim the nadir (γ = 0) at this point; the C0 axis then
@@ -76,6 +77,27 @@
 //   opening_size = [1.2, 0.3]   # disc; rectangle and disc need opening_size = [length, width]
 //                        # (metres, along the luminaire's x and y)
 //   group = "corridor"   # its light group (as in a rule); default the photometric file's stem
+//   object = "Leuchte*"  # instead of `position`: one luminaire per instance of the surfaces
+//   layer = "LIGHTS"     # these globs match (as in a rule, ANDed; at least one), matched
+//                        # against the surfaces as imported (before exclusions). An instance:
+//                        # the matched surfaces are grouped by object name; within one object,
+//                        # triangles sharing a vertex form a piece, and pieces whose bounding
+//                        # boxes intersect (touching counts) are one instance. So a DXF block
+//                        # INSERTed on a layer (one mesh to Assimp), an IFC IfcLightFixture
+//                        # (object: its Name, layer: "IfcLightFixture") and an OBJ group each
+//                        # give one. A glob that matches no surface is an error at its line.
+//   instances = "pieces" # or "objects": one luminaire per object name, however many pieces
+//   mounting = "center"  # the instance's reference point: "center", its bounding-box centre
+//                        # (a bare lamp, a panel); or "surface", where the aim from that centre
+//                        # leaves the box (the underside's centre for a downlight: recessed,
+//                        # surface-mounted and pendant luminaires emit through it)
+//   keep_geometry = false       # false (default): the matched surfaces are removed, so the
+//                        # luminaire's own faces neither shadow it nor take its light; true:
+//                        # kept as they are (a housing, lit and shadowing, not emitting)
+//   With object/layer, `rotation` turns every instance alike, `target` aims each one's nadir
+//   from its reference point at the point, neither hangs it straight down; `count`, `step` and
+//   `position` are errors. Instances are named "NAME 1".."NAME n" ("NAME" alone for one), in
+//   order of object name, then x, y, z of the reference point.
 //   A TILT=INCLUDE file's lamp-tilt factor at the luminaire's tilt (its nadir's angle from
 //   straight down) multiplies every candela; a factor 0 there is an error at the table's line.
 //   A malformed photometric file is an ImportError naming that file, its line and field.
@@ -206,6 +228,48 @@ struct SceneLuminaire {
     std::string to_string() const;
 };
 
+/// A [[luminaire]] placed by the model (`object`/`layer` instead of `position`): resolved
+/// against the scene's surfaces by apply_scene_file, one luminaire per instance.
+struct SceneLuminairePlacement {
+    /// Where an instance's luminaire goes: its bounding-box centre, or where the aim from there
+    /// leaves the box.
+    enum class Mounting { Center, Surface };
+
+    std::size_t line = 0;        ///< line of the table header
+    std::size_t match_line = 0;  ///< line of its `object` key, else of its `layer` key
+    std::string match_key;       ///< "object" or "layer": the key at match_line
+    SurfaceMatch match;          ///< object and/or layer globs (no material)
+    bool per_object = false;     ///< instances = "objects"
+    Mounting mounting = Mounting::Center;
+    bool keep_geometry = false;
+    /// The luminaire every instance copies: web, factors, opening, colour, group, and the frame
+    /// of `rotation` (or unturned); its name is the base name, its position unset.
+    visdb::Luminaire luminaire;
+    std::optional<glm::dvec3> target;  ///< aim each instance's nadir at this point
+    std::string flux_report;           ///< PhotometricFile::flux_report
+    /// TILT=INCLUDE table (PhotometricFile::tilt_angles/tilt_factors): the tilt factor of an
+    /// aimed instance depends on its aim. Empty without a table.
+    std::vector<double> tilt_angles;
+    std::vector<double> tilt_factors;
+
+    std::string to_string() const;
+};
+
+/// One instance found for a SceneLuminairePlacement (placed_instances).
+struct LuminaireInstance {
+    std::string object;   ///< Surface::name of its surfaces
+    glm::dvec3 min{0.0};  ///< bounding box of its triangles, metres
+    glm::dvec3 max{0.0};
+    std::vector<std::size_t> surfaces;  ///< indices into Scene::surfaces holding its triangles
+    std::size_t triangles = 0;
+};
+
+/// The instances of `placement` among `scene`'s surfaces (see the format above), in the order
+/// luminaires are named: object name, then the bounding-box centre's x, y, z. Empty when its
+/// globs match no surface.
+std::vector<LuminaireInstance> placed_instances(const SceneLuminairePlacement& placement,
+                                                const visdb::Scene& scene);
+
 /// A parsed and validated scene file. Sections keep file order; each carries the line of its
 /// table header for messages.
 struct SceneFile {
@@ -225,6 +289,8 @@ struct SceneFile {
     std::vector<SceneExclude> excludes;
     std::vector<SceneGrid> grids;
     std::vector<SceneLuminaire> luminaires;  ///< [[luminaire]], each of a count on its own
+    /// [[luminaire]] tables placed by the model (object/layer), in file order
+    std::vector<SceneLuminairePlacement> placements;
 
     /// True when some rule or rectangle gives a flux, or the file places luminaires.
     bool uses_flux() const;
@@ -252,7 +318,7 @@ struct SceneFileReport {
     std::size_t emitters_added = 0;        ///< rectangles + luminaires lit by object [[emitter]]s
     std::size_t cameras = 0;               ///< cameras added
     std::size_t grids = 0;                 ///< grids added
-    std::size_t luminaires = 0;            ///< luminaires added
+    std::size_t luminaires = 0;            ///< luminaires added (placed by the model too)
 
     std::string to_string() const;
 };
@@ -260,12 +326,15 @@ struct SceneFileReport {
 /// Applies the scene file to the merged, healed scene (metres, Z up, origin shift applied):
 /// resolves grids (against the surfaces before exclusions), removes excluded surfaces, applies
 /// rules and object emitters in file order, adds emitter rectangles, cameras, grids and
-/// luminaires (a note each with its flux against its lamps), and
+/// luminaires (a note each with its flux against its lamps; luminaires placed by the model at
+/// their instances, whose surfaces are removed unless keep_geometry), and
 /// sets `emittance_unit` to "lm/m2" when photometric ("W/m2" when `photometric = false`).
 /// Appends the scene file as a visdb::Source (format "scene", unit "m", up "z", its report);
 /// rectangles belong to that source. Throws ImportError "FILE:LINE: message" for a rule that
 /// cannot apply (a flux luminaire of zero area, every surface excluded, a duplicate camera,
-/// grid or luminaire name, a grid margin that leaves nothing); the scene is then unchanged.
+/// grid or luminaire name, a grid margin that leaves nothing, a luminaire's object or layer
+/// glob that matches no surface, or an aimed instance whose tilt factor is 0); the scene is then
+/// unchanged.
 SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene);
 
 }  // namespace abrad::convert
