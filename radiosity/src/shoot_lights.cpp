@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <numbers>
 #include <span>
 #include <type_traits>
 #include <utility>
@@ -305,14 +306,68 @@ double unoccluded_point_irradiance(const visdb::Luminaire& lum, const glm::dvec3
     return cos_theta > 0.0 ? visdb::channel_mean(lum.intensity(-w)) * cos_theta / d2 : 0.0;
 }
 
+// The points on a flat luminous opening (rectangle or disc, of positive size) its penumbra
+// edges are cast from: the rectangle's four corners, or kDiscRimPoints points on the disc's
+// rim (an ellipse of semi-axes length/2, width/2). Empty for a point or a solid opening (those
+// are lit from the centre alone, direct.cpp).
+constexpr int kDiscRimPoints = 8;
+std::vector<glm::dvec3> opening_corners(const visdb::Luminaire& lum) {
+    using Shape = visdb::LuminousOpening::Shape;
+    const visdb::LuminousOpening& o = lum.opening;
+    std::vector<glm::dvec3> out;
+    if ((o.shape != Shape::Rectangle && o.shape != Shape::Disc) ||
+        !(o.length > 0.0 && o.width > 0.0))
+        return out;
+    const double ax = 0.5 * o.length, ay = 0.5 * o.width;
+    if (o.shape == Shape::Rectangle) {
+        for (const double u : {-ax, ax})
+            for (const double v : {-ay, ay})
+                out.push_back(lum.position + u * lum.axis_x + v * lum.axis_y);
+        return out;
+    }
+    for (int k = 0; k < kDiscRimPoints; ++k) {
+        const double phi = 2.0 * std::numbers::pi * k / kDiscRimPoints;
+        out.push_back(lum.position + ax * std::cos(phi) * lum.axis_x +
+                      ay * std::sin(phi) * lum.axis_y);
+    }
+    return out;
+}
+
+// Distance from `x` to the axis-aligned box of triangle `r`: a lower bound of its distance to
+// any point of the triangle.
+double distance_to_box(const glm::dvec3& x, const Patch& r) {
+    const glm::dvec3 lo = glm::min(glm::min(r.p[0], r.p[1]), r.p[2]);
+    const glm::dvec3 hi = glm::max(glm::max(r.p[0], r.p[1]), r.p[2]);
+    return glm::length(glm::max(glm::max(lo - x, x - hi), glm::dvec3(0.0)));
+}
+
+// Removes segments equal to an earlier one (either way round): a contact edge, cast alike from
+// every point of an opening, is kept once.
+void drop_repeated_segments(std::vector<ShadowSegment>& segments) {
+    std::vector<ShadowSegment> kept;
+    kept.reserve(segments.size());
+    for (const ShadowSegment& s : segments) {
+        const bool repeated = std::any_of(kept.begin(), kept.end(), [&s](const ShadowSegment& k) {
+            return (k.a == s.a && k.b == s.b) || (k.a == s.b && k.b == s.a);
+        });
+        if (!repeated) kept.push_back(s);
+    }
+    segments.swap(kept);
+}
+
 // Shadow edges of a point source (a luminaire) on every receiver its hemicubes reached that
 // faces the point: the occluders' silhouette edges projected from the point
 // (point_shadow_edges). Occluders: the patches in the tetrahedron of the point and the
-// receiver whose plane separates the point from some of the receiver.
+// receiver whose plane separates the point from some of the receiver. A receiver lit through
+// a flat opening (closer to its box than five times the opening's size: the exact field
+// integrates over the opening there, direct.cpp) gets the edges cast from the opening's
+// corners (opening_corners) too: the bounds of the umbra and penumbra, as the vertices of a
+// light triangle give (`--lights vertices`).
 void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
                                 const visdb::Luminaire& lum, OneLight& out) {
     const glm::dvec3 source = lum.position;
-    const Patch point{{source, source, source}, 1.0};
+    const std::vector<glm::dvec3> corners_of_opening = opening_corners(lum);
+    const double opening_reach = kFiveTimes * lum.opening.size();
     std::vector<char> reached(regions.planar.size(), 0);
     for (const std::uint32_t j : out.near)
         if (visdb::any_positive(out.triangle[j])) reached[regions.of_triangle[j]] = 1;
@@ -321,6 +376,8 @@ void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, c
         tbb::blocked_range<std::size_t>(0, out.near.size(), 32), [&](const auto& range) {
             std::vector<LitSegment> here;
             std::vector<const Patch*> occ;
+            std::vector<ShadowSegment> segments;
+            std::vector<glm::dvec3> points;
             ShadowStats s;
             visdb::ShadowEdgeStats counts;
             for (std::size_t ji = range.begin(); ji != range.end(); ++ji) {
@@ -330,20 +387,37 @@ void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, c
                     continue;
                 const glm::dvec3 rn = unit_normal(r);
                 if (glm::dot(source - r.p[0], rn) <= 0.0) continue;  // the point is behind it
-                occ.clear();
-                const glm::dvec3 corners[4] = {source, r.p[0], r.p[1], r.p[2]};
-                bvh.query(Hull(corners), [&](std::uint32_t id) {
-                    if (id != j && can_occlude(g.patches[id], point, r))
-                        occ.push_back(&g.patches[id]);
-                });
-                if (occ.empty()) continue;
+                // The points the edges are cast from: the centre, and the opening's corners
+                // where the receiver is lit through the opening
+                points.assign(1, source);
+                if (!corners_of_opening.empty() && distance_to_box(source, r) < opening_reach)
+                    points.insert(points.end(), corners_of_opening.begin(),
+                                  corners_of_opening.end());
+                segments.clear();
+                bool any_occluder = false;
+                for (const glm::dvec3& from : points) {
+                    if (glm::dot(from - r.p[0], rn) <= 0.0) continue;  // behind the receiver
+                    const Patch point{{from, from, from}, 1.0};
+                    occ.clear();
+                    const glm::dvec3 corners[4] = {from, r.p[0], r.p[1], r.p[2]};
+                    bvh.query(Hull(corners), [&](std::uint32_t id) {
+                        if (id != j && can_occlude(g.patches[id], point, r))
+                            occ.push_back(&g.patches[id]);
+                    });
+                    if (occ.empty()) continue;
+                    any_occluder = true;
+                    counts.occluders_added_by_bvh += occ.size();
+                    for (const ShadowSegment& seg :
+                         point_shadow_edges(from, r, occ, kLengthTolerance * g.size, &s))
+                        segments.push_back(seg);
+                }
+                if (!any_occluder) continue;
                 ++counts.receivers;
-                counts.occluders_added_by_bvh += occ.size();
+                if (points.size() > 1) drop_repeated_segments(segments);
                 // The most the point's light changes across a segment: its largest unoccluded
                 // value on the receiver and the segment
                 double f_receiver = -1.0;
-                for (const ShadowSegment& seg :
-                     point_shadow_edges(source, r, occ, kLengthTolerance * g.size, &s)) {
+                for (const ShadowSegment& seg : segments) {
                     if (f_receiver < 0.0) {
                         f_receiver = unoccluded_point_irradiance(lum, centroid(r), rn);
                         for (const glm::dvec3& x : r.p)

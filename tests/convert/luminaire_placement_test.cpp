@@ -38,7 +38,9 @@ std::string dxf_face(const std::string& layer, const std::vector<glm::dvec3>& pt
     std::string s = "0\n3DFACE\n8\n" + layer + "\n";
     for (std::size_t i = 0; i < pts.size(); ++i) {
         std::ostringstream v;
-        v << "1" << i << "\n" << pts[i].x << "\n2" << i << "\n" << pts[i].y << "\n3" << i << "\n"
+        v << "1" << i << "\n"
+          << pts[i].x << "\n2" << i << "\n"
+          << pts[i].y << "\n3" << i << "\n"
           << pts[i].z << "\n";
         s += v.str();
     }
@@ -68,8 +70,10 @@ std::string lights_dxf(const std::vector<glm::dvec3>& inserts) {
     s += dxf_face("FLOOR", {{0, 0, 0}, {4000, 0, 0}, {4000, 4000, 0}, {0, 4000, 0}});
     for (const glm::dvec3& p : inserts) {
         std::ostringstream v;
-        v << "0\nINSERT\n8\nLIGHTS\n2\nDL\n10\n" << p.x << "\n20\n" << p.y << "\n30\n" << p.z
-          << "\n";
+        v << "0\nINSERT\n8\nLIGHTS\n2\nDL\n10\n"
+          << p.x << "\n20\n"
+          << p.y << "\n30\n"
+          << p.z << "\n";
         s += v.str();
     }
     return s + "0\nENDSEC\n0\nEOF\n";
@@ -110,8 +114,8 @@ std::size_t surfaces_named(const visdb::Scene& scene, const std::string& name) {
 TEST(LuminairePlacement, DxfBlocksOnALayerGiveOneLuminaireEach) {
     const TempDir dir;
     dir.write("dl.ies", kIes);
-    const std::vector<glm::dvec3> inserts = {{3000, 1000, 2500}, {1000, 1000, 2500},
-                                             {1000, 3000, 2500}};
+    const std::vector<glm::dvec3> inserts = {
+        {3000, 1000, 2500}, {1000, 1000, 2500}, {1000, 3000, 2500}};
     const fs::path model = dir.write("lights.dxf", lights_dxf(inserts));
     const fs::path scene_path = dir.write("scene.toml", R"(
 [[luminaire]]
@@ -142,9 +146,9 @@ layer = "lights"
     EXPECT_EQ(report.surfaces_excluded, 1U);
     bool noted = false;
     for (const std::string& note : report.notes) {
-        noted = noted || note.find(":2: luminaire 'DL 1' and 2 more placed at 3 instances "
-                                   "(layer 'lights': 1 object, 1 surface, removed)") !=
-                             std::string::npos;
+        noted = noted || note.find(
+                             ":2: luminaire 'DL 1' and 2 more placed at 3 instances "
+                             "(layer 'lights': 1 object, 1 surface, removed)") != std::string::npos;
     }
     EXPECT_TRUE(noted) << report.to_string();
 
@@ -163,6 +167,95 @@ keep_geometry = true
         expect_vec(centres[i] - glm::dvec3(0, 0, 0.05), kept.luminaires[i].position);
     }
     EXPECT_EQ(surfaces_named(kept, "LIGHTS"), 1U);
+}
+
+/// IFC2X3, metres: a 4 x 4 x 0.2 m slab (IfcSlab 'Floor', top at z = 0) and three light fixtures
+/// (IfcFlowTerminal 'Downlight' typed by an IfcLightFixtureType: IFC2X3 has no IfcLightFixture
+/// entity), each a 0.25 x 0.25 x 0.125 m box extruded up from the middle of its underside at
+/// (1, 1, 2.5), (3, 1, 2.5) and (2, 3, 2.5). One shape shared by the three, as CAD tools write.
+std::string lights_ifc() {
+    std::string s =
+        "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('ViewDefinition [CoordinationView]'),'2;1');\n"
+        "FILE_NAME('lights.ifc','2026-12-01T00:00:00',('abrad'),('abrad'),'abrad test','abrad "
+        "test','');\nFILE_SCHEMA(('IFC2X3'));\nENDSEC;\nDATA;\n"
+        "#1=IFCPERSON($,$,'Test',$,$,$,$,$);\n#2=IFCORGANIZATION($,'abrad',$,$,$);\n"
+        "#3=IFCPERSONANDORGANIZATION(#1,#2,$);\n#4=IFCAPPLICATION(#2,'1','abrad test','abrad');\n"
+        "#5=IFCOWNERHISTORY(#3,#4,$,.ADDED.,$,$,$,0);\n"
+        "#10=IFCSIUNIT(*,.LENGTHUNIT.,$,.METRE.);\n#11=IFCUNITASSIGNMENT((#10));\n"
+        "#20=IFCCARTESIANPOINT((0.,0.,0.));\n#21=IFCDIRECTION((0.,0.,1.));\n"
+        "#22=IFCDIRECTION((1.,0.,0.));\n#23=IFCAXIS2PLACEMENT3D(#20,#21,#22);\n"
+        "#24=IFCGEOMETRICREPRESENTATIONCONTEXT($,'Model',3,1.E-05,#23,$);\n"
+        "#30=IFCPROJECT('0abradProject000000001',#5,'Project',$,$,$,$,(#24),#11);\n"
+        "#31=IFCLOCALPLACEMENT($,#23);\n"
+        "#32=IFCSITE('0abradSite000000000001',#5,'Site',$,$,#31,$,$,.ELEMENT.,$,$,$,$,$);\n"
+        "#33=IFCLOCALPLACEMENT(#31,#23);\n"
+        "#34=IFCBUILDING('0abradBuilding00000001',#5,'Building',$,$,#33,$,$,.ELEMENT.,$,$,$);\n"
+        "#35=IFCLOCALPLACEMENT(#33,#23);\n"
+        "#36=IFCBUILDINGSTOREY('0abradStorey0000000001',#5,'Storey',$,$,#35,$,$,.ELEMENT.,0.);\n"
+        "#37=IFCRELAGGREGATES('0abradAggregates000001',#5,$,$,#30,(#32));\n"
+        "#38=IFCRELAGGREGATES('0abradAggregates000002',#5,$,$,#32,(#34));\n"
+        "#39=IFCRELAGGREGATES('0abradAggregates000003',#5,$,$,#34,(#36));\n"
+        "#40=IFCCARTESIANPOINT((0.,0.));\n#41=IFCAXIS2PLACEMENT2D(#40,$);\n"
+        "#42=IFCCARTESIANPOINT((2.,2.,-0.2));\n#43=IFCAXIS2PLACEMENT3D(#42,#21,#22);\n"
+        "#44=IFCLOCALPLACEMENT(#35,#43);\n#45=IFCRECTANGLEPROFILEDEF(.AREA.,$,#41,4.,4.);\n"
+        "#46=IFCEXTRUDEDAREASOLID(#45,#23,#21,0.2);\n"
+        "#47=IFCSHAPEREPRESENTATION(#24,'Body','SweptSolid',(#46));\n"
+        "#48=IFCPRODUCTDEFINITIONSHAPE($,$,(#47));\n"
+        "#49=IFCSLAB('0abradSlab000000000001',#5,'Floor',$,$,#44,#48,$,.FLOOR.);\n"
+        "#50=IFCRECTANGLEPROFILEDEF(.AREA.,$,#41,0.25,0.25);\n"
+        "#51=IFCEXTRUDEDAREASOLID(#50,#23,#21,0.125);\n"
+        "#52=IFCSHAPEREPRESENTATION(#24,'Body','SweptSolid',(#51));\n"
+        "#53=IFCPRODUCTDEFINITIONSHAPE($,$,(#52));\n"
+        "#60=IFCCARTESIANPOINT((1.,1.,2.5));\n#61=IFCAXIS2PLACEMENT3D(#60,#21,#22);\n"
+        "#62=IFCLOCALPLACEMENT(#35,#61);\n"
+        "#63=IFCFLOWTERMINAL('0abradLight00000000001',#5,'Downlight',$,$,#62,#53,$);\n"
+        "#64=IFCCARTESIANPOINT((3.,1.,2.5));\n#65=IFCAXIS2PLACEMENT3D(#64,#21,#22);\n"
+        "#66=IFCLOCALPLACEMENT(#35,#65);\n"
+        "#67=IFCFLOWTERMINAL('0abradLight00000000002',#5,'Downlight',$,$,#66,#53,$);\n"
+        "#68=IFCCARTESIANPOINT((2.,3.,2.5));\n#69=IFCAXIS2PLACEMENT3D(#68,#21,#22);\n"
+        "#70=IFCLOCALPLACEMENT(#35,#69);\n"
+        "#71=IFCFLOWTERMINAL('0abradLight00000000003',#5,'Downlight',$,$,#70,#53,$);\n"
+        "#80=IFCLIGHTFIXTURETYPE('0abradLightType0000001',#5,'DL',$,$,$,$,$,$,"
+        ".DIRECTIONSOURCE.);\n"
+        "#81=IFCRELDEFINESBYTYPE('0abradDefinesByType001',#5,$,$,(#63,#67,#71),#80);\n"
+        "#90=IFCRELCONTAINEDINSPATIALSTRUCTURE('0abradContained0000001',#5,$,$,"
+        "(#49,#63,#67,#71),#36);\n"
+        "ENDSEC;\nEND-ISO-10303-21;\n";
+    return s;
+}
+
+TEST(LuminairePlacement, IfcLightFixturesGiveOneLuminaireEach) {
+    const TempDir dir;
+    dir.write("dl.ies", kIes);
+    const fs::path model = dir.write("lights.ifc", lights_ifc());
+    // Assimp's IFC reader: the fixtures are objects 'Downlight' on layer 'IfcFlowTerminal'
+    const visdb::Scene imported = import_model(model, {}).scene;
+    std::size_t fixture_surfaces = 0;
+    for (const visdb::Surface& s : imported.surfaces) {
+        if (s.layer == "IfcFlowTerminal") {
+            EXPECT_EQ(s.name, "Downlight");
+            ++fixture_surfaces;
+        }
+    }
+    EXPECT_GE(fixture_surfaces, 1U);
+
+    const fs::path scene_path = dir.write("scene.toml", R"(
+[[luminaire]]
+file = "dl.ies"
+name = "DL"
+layer = "IfcFlowTerminal"
+object = "Down*"
+mounting = "surface"
+)");
+    SceneFileReport report;
+    const visdb::Scene scene = import(model, read_scene_file(scene_path), &report);
+    ASSERT_EQ(scene.luminaires.size(), 3U) << report.to_string();
+    const std::vector<glm::dvec3> expected = {{1, 1, 2.5}, {2, 3, 2.5}, {3, 1, 2.5}};
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+        EXPECT_EQ(scene.luminaires[i].name, "DL " + std::to_string(i + 1));
+        expect_vec(expected[i], scene.luminaires[i].position, 1e-6);  // Assimp's floats
+    }
+    for (const visdb::Surface& s : scene.surfaces) EXPECT_NE(s.layer, "IfcFlowTerminal");
 }
 
 TEST(LuminairePlacement, ObjGroupsPiecesAndObjects) {
@@ -301,9 +394,9 @@ TEST(LuminairePlacement, MistakesAreRefusedAtTheirLineAndKey) {
     }
 
     // Against the model: a glob that matches nothing (at its key's line), a name taken
-    const fs::path model = dir.write(
-        "room.obj", "g floor\nv 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nf 1 2 3 4\ng lamp\n" +
-                        obj_box({1, 1, 2.5}, {1.5, 1.5, 3}, 4));
+    const fs::path model =
+        dir.write("room.obj", "g floor\nv 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nf 1 2 3 4\ng lamp\n" +
+                                  obj_box({1, 1, 2.5}, {1.5, 1.5, 3}, 4));
     const std::vector<PlacementError> apply_cases = {
         {head + "name = \"X\"\nlayer = \"LIGHTS\"\n", 4,
          "'layer' in [[luminaire]] matches no surface (layer 'LIGHTS')"},

@@ -248,6 +248,40 @@ TEST(LuminaireBake, DmMeshFollowsTheShadowOutlineFromThePoint) {
     EXPECT_LT(with_cube, without + 0.002) << with_cube << " " << without;
 }
 
+// A large rectangular opening (1.2 x 0.8 m, 2.5 m over the floor: closer than five times its
+// size, so the exact field integrates over it and the cube casts a penumbra): the shadow
+// outlines cast from each of the opening's four corners are in the discontinuity mesh, as the
+// outline from its centre is (the umbra and penumbra bounds). Without the corners only the
+// centre's outline would be.
+TEST(LuminaireBake, DmMeshFollowsThePenumbraOfALargeOpening) {
+    const glm::dvec3 source{0.7, 0.4, 2.5};
+    visdb::Scene scene = cube_on_floor(source);
+    visdb::Luminaire& l = scene.luminaires.front();
+    l.opening.shape = visdb::LuminousOpening::Shape::Rectangle;
+    l.opening.length = 1.2;  // along x
+    l.opening.width = 0.8;   // along y
+    BakeOptions o;
+    o.bounces = 0;
+    const visdb::Bake b = bake(scene, o);
+    std::size_t checked = 0;
+    for (const double u : {-0.6, 0.6}) {
+        for (const double v : {-0.4, 0.4}) {
+            const glm::dvec3 corner = source + glm::dvec3(u, v, 0.0);
+            for (const glm::dvec2& c : shadow_outline(corner)) {
+                if (std::abs(c.x) <= 0.5 + 1e-9 && std::abs(c.y) <= 0.5 + 1e-9) continue;
+                ++checked;
+                double nearest = 1e300;
+                for (std::size_t k = 0; k < b.mesh.positions.size(); ++k)
+                    if (b.mesh.positions[k].z == 0.0)
+                        nearest =
+                            std::min(nearest, glm::length(glm::dvec2(b.mesh.positions[k]) - c));
+                EXPECT_LT(nearest, 1e-6) << "corner " << u << " " << v << ": " << c.x << " " << c.y;
+            }
+        }
+    }
+    EXPECT_GE(checked, 12u);
+}
+
 TEST(LuminaireBake, ClosedBoxMeetsTheEnclosureIdentity) {
     // A 4 × 3 × 2.5 m box, every face inward, ρ = 0.5, a 100 cd isotropic source inside: the
     // mean irradiance over the walls is Φ / (A (1 − ρ)) when nothing escapes

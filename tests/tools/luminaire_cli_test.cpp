@@ -89,6 +89,85 @@ TEST(LuminaireCli, MalformedPhotometricFileFailsTheImport) {
     EXPECT_EQ(file_bytes(dir / "room.visdb"), before);
 }
 
+// OBJ text of the box [lo, hi], its vertices numbered from `base` + 1.
+std::string obj_box(const glm::dvec3& lo, const glm::dvec3& hi, int base) {
+    std::ostringstream s;
+    for (int k = 0; k < 8; ++k) {
+        s << "v " << ((k & 1) != 0 ? hi.x : lo.x) << " " << ((k & 2) != 0 ? hi.y : lo.y) << " "
+          << ((k & 4) != 0 ? hi.z : lo.z) << "\n";
+    }
+    const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                             {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+    for (const auto& f : faces) {
+        s << "f";
+        for (const int c : f) s << " " << base + c + 1;
+        s << "\n";
+    }
+    return s.str();
+}
+
+// Luminaires placed by the model (two lamp boxes of one OBJ group, mounted at their
+// undersides, their geometry removed) bake exactly as the same luminaires given by position
+// with the lamp boxes excluded: the same vertices with the same exact irradiance, through the
+// discontinuity mesh of a box's shadow. A glob matching nothing fails the import (exit 2) at its
+// line and key.
+TEST(LuminaireCli, PlacedByTheModelBakesAsGivenByPositions) {
+    const TempDir dir("luminaire");
+    fs::create_directories(dir / "model");
+    const fs::path model =
+        dir.write("model/room.obj", std::string("g floor\n") + kFloor + "g box\n" +
+                                        obj_box({1.5, 1.5, 0}, {2.5, 2.5, 0.5}, 4) + "g lamp\n" +
+                                        obj_box({1.25, 1.75, 2.75}, {1.75, 2.25, 3.0}, 12) +
+                                        obj_box({2.25, 1.75, 2.75}, {2.75, 2.25, 3.0}, 20));
+    dir.write("model/lamp.ies", kIes);
+    const fs::path placed = dir.write("model/placed.toml",
+                                      "[[luminaire]]\nfile = \"lamp.ies\"\nname = \"L\"\n"
+                                      "object = \"lamp\"\nmounting = \"surface\"\n");
+    const fs::path given = dir.write("model/given.toml",
+                                     "[[exclude]]\nobject = \"lamp\"\n\n"
+                                     "[[luminaire]]\nfile = \"lamp.ies\"\nname = \"L\"\n"
+                                     "position = [1.5, 2, 2.75]\ncount = 2\nstep = [1, 0, 0]\n");
+    std::vector<abrad::visdb::BakeMesh> meshes;
+    for (const fs::path& scene : {placed, given}) {
+        const std::string db = dir.file(scene.stem().string() + ".visdb");
+        const auto imported =
+            run_abrad("import " + model.string() + " --scene " + scene.string() + " --db " + db);
+        ASSERT_EQ(imported.status, 0) << imported.output;
+        const auto info = run_abrad("info --db " + db);
+        EXPECT_NE(info.output.find("luminaires (2):\n  L 1: "), std::string::npos) << info.output;
+        const auto baked = run_abrad("bake --db " + db + " --bounces 0");
+        ASSERT_EQ(baked.status, 0) << baked.output;
+        const fs::path ply = dir / (scene.stem().string() + ".ply");
+        ASSERT_EQ(run_abrad("export --db " + db + " --output " + ply.string()).status, 0);
+        meshes.push_back(read_ply(file_bytes(ply)));
+    }
+    const abrad::visdb::BakeMesh& a = meshes[0];
+    const abrad::visdb::BakeMesh& b = meshes[1];
+    ASSERT_FALSE(a.positions.empty());
+    ASSERT_EQ(a.positions.size(), b.positions.size());
+    ASSERT_EQ(a.triangles.size(), b.triangles.size());
+    std::size_t lit = 0;
+    for (std::size_t v = 0; v < a.positions.size(); ++v) {
+        EXPECT_EQ(a.positions[v], b.positions[v]) << v;
+        EXPECT_EQ(a.irradiance[v], b.irradiance[v]) << v;
+        if (a.irradiance[v].y > 0.0F) ++lit;
+    }
+    EXPECT_GT(lit, a.positions.size() / 2);
+
+    // A glob matching nothing: exit 2 naming the file, line and key; nothing stored
+    const fs::path wrong = dir.write("model/wrong.toml",
+                                     "[[luminaire]]\nfile = \"lamp.ies\"\nlayer = \"*\"\n"
+                                     "object = \"lamps\"\n");
+    const auto r = run_abrad("import " + model.string() + " --scene " + wrong.string() + " --db " +
+                             dir.file("wrong.visdb"));
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(
+        r.output.find(wrong.string() + ":4: 'object' in [[luminaire]] matches no surface (object "
+                                       "'lamps', layer '*')"),
+        std::string::npos)
+        << r.output;
+}
+
 // A point source of 1000 cd in every direction (an IES file with a uniform web, as CIE 171
 // case 5.2's source) 3 m over the floor: `abrad probe` without a bake gives the exact direct
 // illuminance E = I h / d³ (d the distance to the source).

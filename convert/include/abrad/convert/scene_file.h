@@ -83,9 +83,10 @@
 //                        # the matched surfaces are grouped by object name; within one object,
 //                        # triangles sharing a vertex form a piece, and pieces whose bounding
 //                        # boxes intersect (touching counts) are one instance. So a DXF block
-//                        # INSERTed on a layer (one mesh to Assimp), an IFC IfcLightFixture
-//                        # (object: its Name, layer: "IfcLightFixture") and an OBJ group each
-//                        # give one. A glob that matches no surface is an error at its line.
+//                        # INSERTed on a layer (one mesh to Assimp), an IFC light fixture
+//                        # (IFC2X3: an IfcFlowTerminal; object: its Name, layer: its entity
+//                        # type "IfcFlowTerminal") and an OBJ group each give one. A glob that
+//                        # matches no surface is an error naming its line and key.
 //   instances = "pieces" # or "objects": one luminaire per object name, however many pieces
 //   mounting = "center"  # the instance's reference point: "center", its bounding-box centre
 //                        # (a bare lamp, a panel); or "surface", where the aim from that centre
