@@ -166,6 +166,7 @@ TEST(LuminaireCli, PlacedByTheModelBakesAsGivenByPositions) {
                                        "'lamps', layer '*')"),
         std::string::npos)
         << r.output;
+    EXPECT_FALSE(fs::exists(dir / "wrong.visdb"));
 }
 
 // A point source of 1000 cd in every direction (an IES file with a uniform web, as CIE 171
