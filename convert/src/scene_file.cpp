@@ -960,12 +960,33 @@ void check_placed_names(const SceneFile& file, const visdb::Scene& scene,
     }
 }
 
-/// Appends the placed luminaires to the scene with a note for each table: how many instances of
-/// what, the flux, and what became of their geometry.
-template <class Note>
-void add_placed_luminaires(const std::vector<PlacedLuminaires>& placed, visdb::Scene& scene,
-                           const Note& note) {
+/// Marks the surfaces of placed luminaires that do not keep their geometry as excluded; returns
+/// how many were not excluded already, and sets `first_line` (when 0) to the first such table's.
+std::size_t exclude_placed_geometry(const std::vector<PlacedLuminaires>& placed,
+                                    std::vector<bool>& excluded, std::size_t& first_line) {
+    std::size_t count = 0;
     for (const PlacedLuminaires& r : placed) {
+        if (r.placement->keep_geometry) continue;
+        for (const LuminaireInstance& in : r.instances) {
+            for (const std::size_t i : in.surfaces) {
+                if (excluded[i]) continue;
+                excluded[i] = true;
+                ++count;
+                if (first_line == 0) first_line = r.placement->line;
+            }
+        }
+    }
+    return count;
+}
+
+/// Appends the placed luminaires to the scene with a note for each table (how many instances of
+/// what, the flux, and what became of their geometry); returns how many.
+template <class Note>
+std::size_t add_placed_luminaires(const std::vector<PlacedLuminaires>& placed, visdb::Scene& scene,
+                                  const Note& note) {
+    std::size_t added = 0;
+    for (const PlacedLuminaires& r : placed) {
+        added += r.luminaires.size();
         const SceneLuminairePlacement& p = *r.placement;
         std::set<std::string> objects;
         std::set<std::size_t> surface_set;
@@ -987,6 +1008,7 @@ void add_placed_luminaires(const std::vector<PlacedLuminaires>& placed, visdb::S
                          fmt(first.scale()) + ")");
         for (const visdb::Luminaire& l : r.luminaires) scene.luminaires.push_back(l);
     }
+    return added;
 }
 
 /// Union-find over indices, for the pieces of placed_instances.
@@ -1507,18 +1529,7 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
                           (names.size() == 1 ? "" : "s") +
                           (names.empty() ? std::string() : ": " + name_list(names)));
     }
-    // The geometry of placed luminaires, unless kept
-    for (const PlacedLuminaires& r : placed) {
-        if (r.placement->keep_geometry) continue;
-        for (const LuminaireInstance& in : r.instances) {
-            for (const std::size_t i : in.surfaces) {
-                if (excluded[i]) continue;
-                excluded[i] = true;
-                ++report.surfaces_excluded;
-                if (first_exclude_line == 0) first_exclude_line = r.placement->line;
-            }
-        }
-    }
+    report.surfaces_excluded += exclude_placed_geometry(placed, excluded, first_exclude_line);
     if (n_surfaces > 0 && report.surfaces_excluded == n_surfaces) {
         throw ImportError(path, first_exclude_line,
                           "the exclusions remove every surface of the scene (" +
@@ -1722,9 +1733,7 @@ SceneFileReport apply_scene_file(const SceneFile& file, visdb::Scene& scene) {
     for (auto& g : grids) scene.grids.push_back(std::move(g));
     report.grids = grids.size();
     add_luminaires(file, scene, note);
-    add_placed_luminaires(placed, scene, note);
-    report.luminaires = file.luminaires.size();
-    for (const PlacedLuminaires& r : placed) report.luminaires += r.luminaires.size();
+    report.luminaires = file.luminaires.size() + add_placed_luminaires(placed, scene, note);
     if (set_unit) scene.emittance_unit = file.is_photometric() ? "lm/m2" : "W/m2";
 
     // Notes in file order (those about the whole file last)
