@@ -127,7 +127,8 @@
 //
 // A rule, emitter, exclusion or grid `over` that matches no surface gives a note
 // "FILE:LINE: rule matches no surface (object 'X', layer 'Y')", not an error (a grid is then
-// skipped). Syntax errors, wrong types and out-of-range values are ImportErrors "FILE:LINE: ...".
+// skipped); a [[luminaire]]'s object or layer that matches none is an error, at that key.
+// Syntax errors, wrong types and out-of-range values are ImportErrors "FILE:LINE: ...".
 // ---------------------------------------------------------------------------------------------
 
 #include <cstddef>
