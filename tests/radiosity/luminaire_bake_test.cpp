@@ -251,35 +251,54 @@ TEST(LuminaireBake, DmMeshFollowsTheShadowOutlineFromThePoint) {
 // A large rectangular opening (1.2 x 0.8 m, 2.5 m over the floor: closer than five times its
 // size, so the exact field integrates over it and the cube casts a penumbra): the shadow
 // outlines cast from each of the opening's four corners are in the discontinuity mesh, as the
-// outline from its centre is (the umbra and penumbra bounds). Without the corners only the
-// centre's outline would be.
+// outline from its centre is (the umbra and penumbra bounds); for a 0.9 m disc, those cast from
+// eight points on its rim. Without the corners only the centre's outline would be.
 TEST(LuminaireBake, DmMeshFollowsThePenumbraOfALargeOpening) {
     const glm::dvec3 source{0.7, 0.4, 2.5};
+    // The floor vertex nearest to the point c of the floor
+    const auto nearest_vertex = [](const visdb::Bake& b, const glm::dvec2& c) {
+        double nearest = 1e300;
+        for (std::size_t k = 0; k < b.mesh.positions.size(); ++k)
+            if (b.mesh.positions[k].z == 0.0)
+                nearest = std::min(nearest, glm::length(glm::dvec2(b.mesh.positions[k]) - c));
+        return nearest;
+    };
+    // The corners of the shadow outlines from `points` off the cube's footprint
+    const auto expect_outlines = [&](const visdb::Bake& b, const std::vector<glm::dvec3>& points) {
+        std::size_t checked = 0;
+        for (const glm::dvec3& p : points) {
+            for (const glm::dvec2& c : shadow_outline(p)) {
+                if (std::abs(c.x) <= 0.5 + 1e-9 && std::abs(c.y) <= 0.5 + 1e-9) continue;
+                ++checked;
+                EXPECT_LT(nearest_vertex(b, c), 1e-6)
+                    << "from " << p.x << " " << p.y << ": " << c.x << " " << c.y;
+            }
+        }
+        return checked;
+    };
+    BakeOptions o;
+    o.bounces = 0;
+
+    // A rectangle 1.2 x 0.8 m: its four corners
     visdb::Scene scene = cube_on_floor(source);
     visdb::Luminaire& l = scene.luminaires.front();
     l.opening.shape = visdb::LuminousOpening::Shape::Rectangle;
     l.opening.length = 1.2;  // along x
     l.opening.width = 0.8;   // along y
-    BakeOptions o;
-    o.bounces = 0;
-    const visdb::Bake b = bake(scene, o);
-    std::size_t checked = 0;
-    for (const double u : {-0.6, 0.6}) {
-        for (const double v : {-0.4, 0.4}) {
-            const glm::dvec3 corner = source + glm::dvec3(u, v, 0.0);
-            for (const glm::dvec2& c : shadow_outline(corner)) {
-                if (std::abs(c.x) <= 0.5 + 1e-9 && std::abs(c.y) <= 0.5 + 1e-9) continue;
-                ++checked;
-                double nearest = 1e300;
-                for (std::size_t k = 0; k < b.mesh.positions.size(); ++k)
-                    if (b.mesh.positions[k].z == 0.0)
-                        nearest =
-                            std::min(nearest, glm::length(glm::dvec2(b.mesh.positions[k]) - c));
-                EXPECT_LT(nearest, 1e-6) << "corner " << u << " " << v << ": " << c.x << " " << c.y;
-            }
-        }
+    std::vector<glm::dvec3> corners;
+    for (const double u : {-0.6, 0.6})
+        for (const double v : {-0.4, 0.4}) corners.push_back(source + glm::dvec3(u, v, 0.0));
+    EXPECT_GE(expect_outlines(bake(scene, o), corners), 12u);
+
+    // A disc 0.9 m across: eight points on its rim
+    l.opening.shape = visdb::LuminousOpening::Shape::Disc;
+    l.opening.length = l.opening.width = 0.9;
+    std::vector<glm::dvec3> rim;
+    for (int k = 0; k < 8; ++k) {
+        const double phi = 2.0 * kPi * k / 8.0;
+        rim.push_back(source + 0.45 * glm::dvec3(std::cos(phi), std::sin(phi), 0.0));
     }
-    EXPECT_GE(checked, 12u);
+    EXPECT_GE(expect_outlines(bake(scene, o), rim), 24u);
 }
 
 TEST(LuminaireBake, ClosedBoxMeetsTheEnclosureIdentity) {
