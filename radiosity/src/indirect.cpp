@@ -148,27 +148,99 @@ void IndirectSolution::index_cells() {
     }
 }
 
+namespace {
+
+// The weighted least-squares plane a + b·dx + c·dy through values at offsets (dx, dy) from the
+// point, its value there (a), one channel at a time: normal equations of the basis (1, dx, dy).
+class PlaneFit {
+  public:
+    void add(const glm::dvec2& d, double w, const visdb::Rgb& value) {
+        const double f[3] = {1.0, d.x, d.y};
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) m_m[r][c] += w * f[r] * f[c];
+            m_rhs[r] += w * f[r] * value;
+        }
+        m_lo = glm::min(m_lo, value);
+        m_hi = glm::max(m_hi, value);
+    }
+
+    double weight() const { return m_m[0][0]; }
+
+    // The plane's value at the point. The slopes are damped by a ridge of 1e-9 of the weight
+    // (centroids on a line, or one element: the fit along the line, or the mean), and the value
+    // is kept within half the values' range beyond them (and ≥ 0): a partial element's
+    // centroid close to another's must not throw the extrapolation far off.
+    visdb::Rgb value() const {
+        double m[3][3];
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) m[r][c] = m_m[r][c];
+        m[1][1] += 1e-9 * m[0][0];
+        m[2][2] += 1e-9 * m[0][0];
+        // Solve for a by Cramer's rule: a = det(M with column 0 = rhs) / det(M)
+        auto det3 = [](const double a[3][3]) {
+            return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                   a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                   a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+        };
+        const double det = det3(m);
+        visdb::Rgb out(0.0);
+        for (int ch = 0; ch < 3; ++ch) {
+            double a[3][3];
+            for (int r = 0; r < 3; ++r) {
+                a[r][0] = m_rhs[r][ch];
+                a[r][1] = m[r][1];
+                a[r][2] = m[r][2];
+            }
+            const double mean = m_rhs[0][ch] / m[0][0];
+            double v = det > 0.0 ? det3(a) / det : mean;
+            if (!std::isfinite(v)) v = mean;
+            const double span = 0.5 * (m_hi[ch] - m_lo[ch]);
+            out[ch] = std::max(0.0, std::clamp(v, m_lo[ch] - span, m_hi[ch] + span));
+        }
+        return out;
+    }
+
+  private:
+    double m_m[3][3] = {};
+    visdb::Rgb m_rhs[3] = {visdb::Rgb(0.0), visdb::Rgb(0.0), visdb::Rgb(0.0)};
+    visdb::Rgb m_lo{std::numeric_limits<double>::max()};
+    visdb::Rgb m_hi{-std::numeric_limits<double>::max()};
+};
+
+// Radius, in cells, of the elements a point's plane is fitted to.
+constexpr double kFitRadius = 2.0;
+
+}  // namespace
+
 visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const {
     if (region >= grids.size()) return visdb::Rgb(0.0);
     const Grid& g = grids[region];
-    // Cell-centre coordinates: centre of cell (i, j) at (i, j)
-    const double s = glm::dot(p - g.origin, g.u) / element_size - 0.5;
-    const double t = glm::dot(p - g.origin, g.v) / element_size - 0.5;
-    const double fs = std::floor(s), ft = std::floor(t);
-    const int i0 = static_cast<int>(fs), j0 = static_cast<int>(ft);
-    const double a = s - fs, b = t - ft;
-    visdb::Rgb sum(0.0);
-    double weight = 0.0;
-    for (int dj = 0; dj < 2; ++dj)
-        for (int di = 0; di < 2; ++di) {
+    // The point in cell units of the region's grid; cell (i, j)'s centre at (i + ½, j + ½)
+    const glm::dvec2 q{glm::dot(p - g.origin, g.u) / element_size,
+                       glm::dot(p - g.origin, g.v) / element_size};
+    const int i0 = static_cast<int>(std::floor(q.x - 0.5));
+    const int j0 = static_cast<int>(std::floor(q.y - 0.5));
+    // Fit a plane to the elements whose centroids lie within kFitRadius cells, weighted by
+    // (1 − r²/R²)² and by their share of a cell: the plane extrapolates the field to a region's
+    // boundaries and corners, where the centroids lie on one side of the point only
+    PlaneFit fit;
+    const double cell_area = element_size * element_size;
+    for (int dj = -1; dj <= 2; ++dj)
+        for (int di = -1; di <= 2; ++di) {
             const std::uint32_t e = element_at(region, i0 + di, j0 + dj);
             if (e == kNoElement) continue;
-            const double w = (di ? a : 1.0 - a) * (dj ? b : 1.0 - b);
-            sum += w * elements[e].indirect;
-            weight += w;
+            const Element& el = elements[e];
+            const glm::dvec2 c{glm::dot(el.centroid - g.origin, g.u) / element_size,
+                               glm::dot(el.centroid - g.origin, g.v) / element_size};
+            const glm::dvec2 d = c - q;
+            const double r2 = glm::dot(d, d) / (kFitRadius * kFitRadius);
+            if (r2 >= 1.0) continue;
+            const double w = (1.0 - r2) * (1.0 - r2) * std::min(1.0, el.area / cell_area);
+            if (w > 0.0) fit.add(d, w, el.indirect);
         }
-    if (weight > 1e-9) return sum / weight;
-    // Near the corner of a cell whose neighbours are empty: the nearest element of the 3×3 block
+    if (fit.weight() > 0.0) return fit.value();
+    // Far from every centroid (a point off the region's elements): the nearest element of the
+    // 4×4 block
     double best = std::numeric_limits<double>::max();
     visdb::Rgb value(0.0);
     for (int dj = -1; dj <= 2; ++dj)
