@@ -148,114 +148,6 @@ void IndirectSolution::index_cells() {
     }
 }
 
-namespace {
-
-// The weighted least-squares plane a + b·dx + c·dy through values at offsets (dx, dy) from a
-// point, one channel at a time: normal equations of the basis (1, dx, dy).
-class PlaneFit {
-  public:
-    void add(const glm::dvec2& d, double w, const visdb::Rgb& value) {
-        const double f[3] = {1.0, d.x, d.y};
-        for (int r = 0; r < 3; ++r) {
-            for (int c = 0; c < 3; ++c) m_m[r][c] += w * f[r] * f[c];
-            m_rhs[r] += w * f[r] * value;
-        }
-        m_lo = glm::min(m_lo, value);
-        m_hi = glm::max(m_hi, value);
-    }
-
-    double weight() const { return m_m[0][0]; }
-
-    // The plane's coefficients (a, b, c) per channel. The slopes are damped by a ridge of 1e-9
-    // of the weight: centroids on a line give the fit along the line, one element its value.
-    std::array<visdb::Rgb, 3> solve() const {
-        double m[3][3];
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) m[r][c] = m_m[r][c];
-        m[1][1] += 1e-9 * m[0][0];
-        m[2][2] += 1e-9 * m[0][0];
-        // Cramer's rule, one column of the coefficients at a time
-        auto det3 = [](const double a[3][3]) {
-            return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-                   a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                   a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-        };
-        const double det = det3(m);
-        std::array<visdb::Rgb, 3> out{visdb::Rgb(0.0), visdb::Rgb(0.0), visdb::Rgb(0.0)};
-        for (int ch = 0; ch < 3; ++ch) {
-            const double mean = m_rhs[0][ch] / m[0][0];
-            for (int k = 0; k < 3; ++k) {
-                double a[3][3];
-                for (int r = 0; r < 3; ++r)
-                    for (int c = 0; c < 3; ++c) a[r][c] = c == k ? m_rhs[r][ch] : m[r][c];
-                const double v = det > 0.0 ? det3(a) / det : 0.0;
-                out[k][ch] = std::isfinite(v) ? v : 0.0;
-            }
-            if (!(det > 0.0) || !std::isfinite(out[0][ch])) out[0][ch] = mean;
-        }
-        return out;
-    }
-
-    // `v` kept within 4 times the values' range beyond them (a line's value four steps beyond
-    // its last point: a corner's diagonal ghost beyond partial cells lies up to 3 steps out)
-    // and ≥ 0: a partial element's centroid close to another's must not throw an
-    // extrapolation far off.
-    visdb::Rgb bound(const visdb::Rgb& v) const {
-        const visdb::Rgb span = 4.0 * (m_hi - m_lo);
-        return glm::max(visdb::Rgb(0.0), glm::clamp(v, m_lo - span, m_hi + span));
-    }
-
-  private:
-    double m_m[3][3] = {};
-    visdb::Rgb m_rhs[3] = {visdb::Rgb(0.0), visdb::Rgb(0.0), visdb::Rgb(0.0)};
-    visdb::Rgb m_lo{std::numeric_limits<double>::max()};
-    visdb::Rgb m_hi{-std::numeric_limits<double>::max()};
-};
-
-// Radius, in cells, of the elements a cell's plane is fitted to: from a corner's diagonal
-// ghost it reaches the two cells beside the corner cell (at √5 cells).
-constexpr double kFitRadius = 2.5;
-
-}  // namespace
-
-std::optional<visdb::Rgb> IndirectSolution::at_centre(std::uint32_t region, int i, int j) const {
-    const std::uint32_t self = element_at(region, i, j);
-    const double cell_area = element_size * element_size;
-    const Grid& g = grids[region];
-    auto in_cells = [&](const glm::dvec3& x) {
-        return glm::dvec2{glm::dot(x - g.origin, g.u) / element_size,
-                          glm::dot(x - g.origin, g.v) / element_size};
-    };
-    // A whole cell's element: its own value, its centroid being the centre
-    if (self != kNoElement && elements[self].area >= (1.0 - 1e-9) * cell_area)
-        return elements[self].indirect;
-    // A plane fitted to the elements whose centroids lie within kFitRadius cells of the
-    // centre, weighted by (1 − r²/R²)² and by their share of a cell
-    const glm::dvec2 centre{i + 0.5, j + 0.5};
-    PlaneFit fit;
-    const int reach = static_cast<int>(std::ceil(kFitRadius));
-    for (int dj = -reach; dj <= reach; ++dj)
-        for (int di = -reach; di <= reach; ++di) {
-            const std::uint32_t e = element_at(region, i + di, j + dj);
-            if (e == kNoElement) continue;
-            const Element& el = elements[e];
-            const glm::dvec2 d = in_cells(el.centroid) - centre;
-            const double r2 = glm::dot(d, d) / (kFitRadius * kFitRadius);
-            if (r2 >= 1.0) continue;
-            const double w = (1.0 - r2) * (1.0 - r2) * std::min(1.0, el.area / cell_area);
-            if (w > 0.0) fit.add(d, w, el.indirect);
-        }
-    if (!(fit.weight() > 0.0)) {
-        if (self != kNoElement) return elements[self].indirect;
-        return std::nullopt;
-    }
-    const std::array<visdb::Rgb, 3> plane = fit.solve();
-    if (self == kNoElement) return fit.bound(plane[0]);  // a ghost: the plane at the centre
-    // A partial cell's element: its value moved from its centroid to the centre along the plane
-    const glm::dvec2 d = centre - in_cells(elements[self].centroid);
-    return fit.bound(elements[self].indirect + d.x * plane[1] + d.y * plane[2]);
-}
-
 visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const {
     if (region >= grids.size()) return visdb::Rgb(0.0);
     const Grid& g = grids[region];
@@ -265,23 +157,18 @@ visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const
     const double fs = std::floor(s), ft = std::floor(t);
     const int i0 = static_cast<int>(fs), j0 = static_cast<int>(ft);
     const double a = s - fs, b = t - ft;
-    // Bilinear between the values at the four cell centres around p (at_centre: a cell beyond
-    // the region's boundary, or partly in it, takes what its neighbours' plane gives there), so
-    // that the field reaches boundaries and corners with its slope
     visdb::Rgb sum(0.0);
     double weight = 0.0;
     for (int dj = 0; dj < 2; ++dj)
         for (int di = 0; di < 2; ++di) {
+            const std::uint32_t e = element_at(region, i0 + di, j0 + dj);
+            if (e == kNoElement) continue;
             const double w = (di ? a : 1.0 - a) * (dj ? b : 1.0 - b);
-            if (!(w > 0.0)) continue;
-            const std::optional<visdb::Rgb> v = at_centre(region, i0 + di, j0 + dj);
-            if (!v) continue;
-            sum += w * *v;
+            sum += w * elements[e].indirect;
             weight += w;
         }
     if (weight > 1e-9) return sum / weight;
-    // Near the corner of a cell whose neighbours are empty: the nearest element of the 4×4
-    // block
+    // Near the corner of a cell whose neighbours are empty: the nearest element of the 3×3 block
     double best = std::numeric_limits<double>::max();
     visdb::Rgb value(0.0);
     for (int dj = -1; dj <= 2; ++dj)

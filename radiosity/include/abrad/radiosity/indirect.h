@@ -8,7 +8,7 @@
 // surface): every region is cut by a square grid of side `element_size` in its plane, and the
 // parts of its triangles in one cell (exact triangle ∩ cell polygons) make one element. The
 // element's radiosity is constant; values between elements are interpolated bilinearly from the
-// cell centres of the region's grid, and extrapolated linearly to its boundaries. Elements receive alone but shoot in groups (shooters:
+// cell centres of the region's grid. Elements receive alone but shoot in groups (shooters:
 // blocks of cells, and small faces grouped by place and facing), one hemicube per group, the
 // shooting side of a hierarchy (Hanrahan, Salzman & Aupperle 1991) one level deep.
 
@@ -89,17 +89,9 @@ struct EnergyBalance {
 /// point of a region.
 struct IndirectSolution {
     /// Interpolated indirect irradiance (W/m² or lux, RGB) at `p` in planar region `region`:
-    /// bilinear between the values at the centres of the region's grid cells (at_centre), so
-    /// the field is extrapolated linearly to boundaries and corners (0 in a region without
-    /// elements).
+    /// bilinear between the centres of the region's grid cells, over the cells that hold an
+    /// element (0 in a region without elements).
     visdb::Rgb at(std::uint32_t region, const glm::dvec3& p) const;
-    /// The value at the centre of cell (i, j) of `region`: a whole cell's element's own; else
-    /// the weighted least-squares plane through the elements whose centroids lie within 2.5
-    /// cells: at the centre for a cell without an element (beyond the region's boundary), the
-    /// element's value moved from its centroid to the centre along the plane for a partial
-    /// cell; within 4 times the elements' range of values beyond them, and ≥ 0. Nullopt: no element
-    /// that near.
-    std::optional<visdb::Rgb> at_centre(std::uint32_t region, int i, int j) const;
 
     // What the solution did
     std::size_t pieces = 0;              ///< parts of triangles in elements (triangle ∩ cell)
