@@ -54,6 +54,7 @@ std::vector<double> graded(double first, double ratio, double widest) {
     if (half.size() > 2 && half[half.size() - 1] - half[half.size() - 2] < 0.5 * first)
         half.erase(half.end() - 2);
     std::vector<double> b;
+    b.reserve(2 * half.size() - 1);
     for (const double d : half) b.push_back(-kHalf + d);
     for (auto it = half.rbegin() + 1; it != half.rend(); ++it) b.push_back(kHalf - *it);
     return b;
