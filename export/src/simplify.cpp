@@ -10,8 +10,10 @@
 // rated by what they add to it), and a least-squares refit of the kept vertices' values
 // (docs/algorithms.md#simplification). Numeric assumptions: the bake's connected pieces are
 // planar (bake vertices are shared only by faces whose normals agree to 1e-9), barycentric
-// coordinates are computed in double in a local frame around the mesh's centre, and a sample
-// counts as inside a triangle down to a barycentric coordinate of -1e-6.
+// coordinates are computed in double in a local frame around the mesh's centre, a sample
+// counts as inside a triangle down to a barycentric coordinate of -1e-6, the quadric's
+// round-off below 0 counts as 0 (ModPlanarQuadric), and an outline is straight through a
+// vertex within 1e-7 of the mesh's diagonal (float input coordinates are off by ~1e-7 relative).
 
 #include "abrad/export/simplify.h"
 
@@ -344,7 +346,8 @@ class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
 
   private:
     // A boundary vertex goes only along its boundary, and only where the boundary runs
-    // straight through it, so every surface keeps its outline.
+    // straight through it (within kStraight of the mesh's size of the line through its two
+    // boundary neighbours, and between them), so every surface keeps its outline.
     bool boundary_kept(const CollapseInfo& ci) const {
         const Mesh& m = m_mesh;
         if (!m.is_boundary(ci.v0)) return true;
