@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <glm/geometric.hpp>
 #include <limits>
 #include <optional>
 #include <set>
@@ -125,6 +126,61 @@ TEST(Simplify, KeepsTheOutline) {
     for (const auto& [x, y] :
          {std::pair{0.0, 0.0}, {1.0, 0.0}, {1.0, 0.5}, {0.5, 0.5}, {0.5, 1.0}, {0.0, 1.0}})
         EXPECT_TRUE(has_vertex(x, y)) << "corner (" << x << ", " << y << ") lost";
+}
+
+// A wall as an IFC model gives it: 10 × 3 m, turned 30° about z, several metres from the
+// mesh's centre (a second wall opposite), meshed 40 × 12 cells, its coordinates rounded to
+// float. Under a field linear along the wall, every vertex but the four corners goes: the
+// quadric of a point on its planes, which round-off makes -1e-13 as often as +1e-13, once
+// refused half the in-plane collapses, and outline vertices that float rounding put 1e-6 m
+// off their line (a sine up to 1e-5 on 0.25 m cells) were not taken for straight.
+TEST(Simplify, RealCoordinatesLeaveOnlyTheCorners) {
+    visdb::BakeMesh in;
+    constexpr int kU = 40, kV = 12;
+    const double angle = std::acos(-1.0) / 6.0;
+    const glm::dvec3 u(std::cos(angle), std::sin(angle), 0.0), v(0.0, 0.0, 1.0);
+    for (int wall = 0; wall < 2; ++wall) {
+        const glm::dvec3 corner =
+            wall == 0 ? glm::dvec3(7.3, 4.1, 0.2)
+                      : glm::dvec3(7.3, 4.1, 0.2) + 6.0 * glm::dvec3(-u.y, u.x, 0.0);
+        const glm::vec3 normal(glm::cross(wall == 0 ? u : -u, v));
+        const auto base = static_cast<std::uint32_t>(in.positions.size());
+        const auto at = [&](int i, int j) {
+            return base + static_cast<std::uint32_t>(j * (kU + 1) + i);
+        };
+        for (int j = 0; j <= kV; ++j)
+            for (int i = 0; i <= kU; ++i) {
+                const glm::dvec3 p = corner + (10.0 * i / kU) * u + (3.0 * j / kV) * v;
+                in.positions.emplace_back(glm::vec3(p));  // float, as Assimp reads an IFC
+                in.normals.push_back(normal);
+                const auto h = static_cast<float>(50.0 + 4.0 * i / kU);
+                in.irradiance.emplace_back(h);
+                in.radiosity.emplace_back(0.7f * h);
+            }
+        for (int j = 0; j < kV; ++j)
+            for (int i = 0; i < kU; ++i) {
+                const glm::u32vec3 a(at(i, j), at(i + 1, j), at(i + 1, j + 1));
+                const glm::u32vec3 b(at(i, j), at(i + 1, j + 1), at(i, j + 1));
+                in.triangles.push_back(wall == 0 ? a : glm::u32vec3(a.x, a.z, a.y));
+                in.triangles.push_back(wall == 0 ? b : glm::u32vec3(b.x, b.z, b.y));
+                in.triangle_surface.insert(in.triangle_surface.end(), 2, std::uint32_t(wall));
+            }
+    }
+    SimplifyStats stats;
+    const visdb::BakeMesh out = simplify(in, {.error = 0.001}, &stats);
+    EXPECT_EQ(stats.triangles_before, 2u * 2u * kU * kV);
+    EXPECT_EQ(out.triangles.size(), 4u) << to_string(stats);
+    EXPECT_EQ(out.positions.size(), 8u);
+    // The corners stay exactly where the bake had them
+    for (const glm::dvec3& p : out.positions)
+        EXPECT_TRUE(std::find(in.positions.begin(), in.positions.end(), p) != in.positions.end());
+    const auto total_area = [](const visdb::BakeMesh& m) {
+        double sum = 0.0;
+        for (const glm::u32vec3& t : m.triangles)
+            sum += visdb::triangle_area(m.positions[t.x], m.positions[t.y], m.positions[t.z]);
+        return sum;
+    };
+    EXPECT_NEAR(total_area(out), total_area(in), 1e-9 * total_area(in));
 }
 
 // A shadow boundary: full light left of x = 0.5, a tenth of it right of x = 0.5 + 1/n (a

@@ -74,10 +74,13 @@ TEST_F(SimplifyCli, SimplifiedBakeKeepsTheFieldErrorWithinTheBound) {
     const auto [triangles_after, error_after] = after;
     EXPECT_LT(triangles_after, 0.75 * triangles_before);
     EXPECT_LE(error_after, error_before + kError);
-    // The export's shortcut writes the same light mesh without storing it
+    // The export's shortcut writes the same light mesh without storing it, with its refit
+    // and budget off
     const std::string ply = (s_dir / "light.ply").string();
-    const Result exported =
-        run("export --db " + s_db + " --bake direct --simplify 0.02 --output " + ply);
+    const Result exported = run("export --db " + s_db +
+                                " --bake direct --simplify 0.02 --simplify-refit false "
+                                "--simplify-budget 0 --output " +
+                                ply);
     ASSERT_EQ(exported.status, 0) << exported.output;
     EXPECT_NE(
         exported.output.find(std::to_string(static_cast<long>(triangles_after)) + " triangles"),
@@ -99,6 +102,16 @@ TEST_F(SimplifyCli, BudgetWithRefitGivesFiveTimesFewerTriangles) {
     EXPECT_LE(after[1], before[1] + 0.005) << "field error " << after[1] << " of " << before[1];
     const Result info = run("info --db " + s_db);
     EXPECT_NE(info.output.find("simplify_budget"), std::string::npos) << info.output;
+    // The export's light mesh is this one by default
+    const std::string glb = (s_dir / "budget.glb").string();
+    const Result exported =
+        run("export --db " + s_db + " --bake direct --simplify 1 --output " + glb);
+    ASSERT_EQ(exported.status, 0) << exported.output;
+    EXPECT_NE(exported.output.find(std::to_string(static_cast<long>(after[0])) + " triangles"),
+              std::string::npos)
+        << exported.output;
+    EXPECT_NE(exported.output.find("refit true, budget 0.004"), std::string::npos)
+        << exported.output;
 }
 
 TEST_F(SimplifyCli, BadBoundsAreRefused) {
@@ -125,6 +138,18 @@ TEST_F(SimplifyCli, BadBoundsAreRefused) {
     EXPECT_EQ(itself.status, 2) << itself.output;
     const Result missing = run("simplify --db " + s_db + " --bake nonesuch --error 0.1");
     EXPECT_EQ(missing.status, 2) << missing.output;
+    for (const std::string option : {"--simplify-floor 2", "--simplify-budget 1.5",
+                                     "--simplify-budget -0.1", "--simplify-floor nan"}) {
+        const Result e =
+            run("export --db " + s_db + " --output " + ply + " --simplify 0.1 " + option);
+        EXPECT_EQ(e.status, 2) << option << "\n" << e.output;
+        EXPECT_NE(e.output.find(option.substr(0, option.find(' '))), std::string::npos) << e.output;
+    }
+    const Result alone =
+        run("export --db " + s_db + " --output " + ply + " --simplify-refit false");
+    EXPECT_EQ(alone.status, 2) << alone.output;
+    EXPECT_NE(alone.output.find("give --simplify"), std::string::npos) << alone.output;
+    EXPECT_FALSE(fs::exists(ply));
     const Result reference = run("export --db " + s_db + " --format pov-reference --output " +
                                  (s_dir / "r.pov").string() + " --simplify 0.1");
     EXPECT_EQ(reference.status, 2) << reference.output;

@@ -189,6 +189,13 @@ void import_into(const visdb::Scene& scene, const std::string& db);
 visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options,
                       const std::string& convergence_csv = {}, const std::string& grid_prefix = {});
 
+/// The light mesh of `export --simplify E` unless told otherwise: the least-squares refit and
+/// an area-weighted budget of 0.4 % of the bake's mean irradiance, the best found
+/// (docs/benchmarks.md#light-meshes-simplification; `--simplify 1` leaves the budget alone to
+/// decide). `abrad simplify`'s own defaults stay the per-vertex bound alone.
+inline constexpr exporter::SimplifyOptions kExportSimplify{
+    .error = 1.0, .floor = 0.1, .refit = true, .budget = 0.004};
+
 /// What export writes (cmd_export.cpp).
 struct ExportArgs {
     std::string db;
@@ -200,19 +207,36 @@ struct ExportArgs {
     std::string positions = "double";  ///< ply: double|float
     std::string surface_ids = "face";  ///< ply: face|vertex
     std::optional<double> simplify;    ///< export a light mesh: simplify_mesh's error bound
-    bool pov_tone_map = false;         ///< pov: tone-mapped colours for PNG, not linear ones
-    std::string scene_mix;             ///< --scene-mix: light groups dimmed; empty: the bake's
+    /// --simplify-floor, --simplify-refit, --simplify-budget: the light mesh's other options
+    double simplify_floor = kExportSimplify.floor;
+    bool simplify_refit = kExportSimplify.refit;
+    double simplify_budget = kExportSimplify.budget;
+    bool pov_tone_map = false;  ///< pov: tone-mapped colours for PNG, not linear ones
+    std::string scene_mix;      ///< --scene-mix: light groups dimmed; empty: the bake's
     ViewArgs view;
 };
 /// Exports a bake (or the model, pov-reference) in `a.format`, or the format the output's
 /// extension names; options the format does not use are checked by the export subcommand.
 void export_bake(const ExportArgs& a);
 
-/// The bake's mesh simplified with `options` (exporter::simplify), its statistics on stderr;
-/// `option` names the option that gave the bound `options.error` in the bad-input message for
-/// a value outside (0, 1] (cmd_simplify.cpp).
+/// The options of a light mesh on the command line: `error` names the per-vertex bound's
+/// option, `prefix` the others' ("--" gives simplify's --floor, --refit, --budget;
+/// "--simplify-" export's).
+struct SimplifyOptionNames {
+    std::string error;
+    std::string prefix;
+};
+
+/// Bad input (exit 2) naming the option for options outside their ranges: the bound in
+/// (0, 1], the floor and the budget in [0, 1] (cmd_simplify.cpp).
+void check_simplify_options(const exporter::SimplifyOptions& options,
+                            const SimplifyOptionNames& names);
+
+/// The bake's mesh simplified with `options` (exporter::simplify), the options and the
+/// statistics on stderr; options outside their ranges are bad input naming `names`'
+/// options (cmd_simplify.cpp).
 visdb::BakeMesh simplify_mesh(const visdb::Bake& bake, const exporter::SimplifyOptions& options,
-                              const std::string& option);
+                              const SimplifyOptionNames& names);
 
 /// What render draws (cmd_render.cpp).
 struct RenderArgs {

@@ -38,13 +38,22 @@ struct ToneMapped {
     exporter::ToneMap tone;
 };
 
+// --simplify and its options, as the light mesh's options.
+const SimplifyOptionNames kSimplifyNames{.error = "--simplify", .prefix = "--simplify-"};
+exporter::SimplifyOptions simplify_options(const ExportArgs& a) {
+    return {.error = a.simplify.value_or(kExportSimplify.error),
+            .floor = a.simplify_floor,
+            .refit = a.simplify_refit,
+            .budget = a.simplify_budget};
+}
+
 ToneMapped bake_of(const ExportJob& job) {
     visdb::Bake b =
         job.mixed ? *job.mixed : load_bake_for(job.store, job.args.db, job.args.bake, "export");
     const exporter::ToneMap tone =
         job.own_tone ? *job.own_tone : exposure_for(b, job.scene, job.args.view);
     // --simplify: a light mesh, toned as the bake itself
-    if (job.args.simplify) b.mesh = simplify_mesh(b, {.error = *job.args.simplify}, "--simplify");
+    if (job.args.simplify) b.mesh = simplify_mesh(b, simplify_options(job.args), kSimplifyNames);
     return {std::move(b), tone};
 }
 
@@ -157,14 +166,24 @@ const std::vector<ExportFormat>& export_formats() {
         {"ply",
          {".ply"},
          true,
-         {"--ascii", "--up", "--positions", "--surface-ids", "--simplify"},
+         {"--ascii", "--up", "--positions", "--surface-ids", "--simplify", "--simplify-floor",
+          "--simplify-refit", "--simplify-budget"},
          write_ply},
-        {"obj", {".obj"}, true, {"--up", "--simplify"}, write_obj},
-        {"gltf", {".gltf", ".glb"}, true, {"--simplify"}, write_gltf},
+        {"obj",
+         {".obj"},
+         true,
+         {"--up", "--simplify", "--simplify-floor", "--simplify-refit", "--simplify-budget"},
+         write_obj},
+        {"gltf",
+         {".gltf", ".glb"},
+         true,
+         {"--simplify", "--simplify-floor", "--simplify-refit", "--simplify-budget"},
+         write_gltf},
         {"pov",
          {".pov"},
          true,
-         {"--camera", "--width", "--height", "--simplify", "--pov-tone-map"},
+         {"--camera", "--width", "--height", "--simplify", "--simplify-floor", "--simplify-refit",
+          "--simplify-budget", "--pov-tone-map"},
          write_pov},
         {"pov-reference",
          {".pov"},
@@ -301,8 +320,21 @@ void add_export(CLI::App& app) {
         ->check(CLI::IsMember({"face", "vertex"}));
     app.add_option("--simplify", s.simplify,
                    "Export a light mesh: the bake decimated while the irradiance at every "
-                   "removed vertex changes by at most this fraction, in (0, 1] (as abrad "
-                   "simplify --error, without storing it)");
+                   "removed vertex changes by at most this fraction, in (0, 1] (1: no cap), "
+                   "within the budget and refitted (as abrad simplify --error E --refit true "
+                   "--budget 0.004, without storing it)");
+    app.add_option("--simplify-floor", s.simplify_floor,
+                   "With --simplify: as abrad simplify --floor (the bound's absolute floor, a "
+                   "fraction of the brightest irradiance)")
+        ->capture_default_str();
+    app.add_option("--simplify-refit", s.simplify_refit,
+                   "With --simplify: as abrad simplify --refit (least-squares values of the kept "
+                   "vertices)")
+        ->capture_default_str();
+    app.add_option("--simplify-budget", s.simplify_budget,
+                   "With --simplify: as abrad simplify --budget (area-weighted mean change "
+                   "allowed, a fraction of the mean irradiance; 0: none)")
+        ->capture_default_str();
     app.add_flag("--pov-tone-map", s.pov_tone_map,
                  "pov: vertex colours through the tone curve 1 - exp(-exposure B), for an 8-bit "
                  "PNG from POV-Ray (+FN) that looks like abrad render's, instead of linear "
@@ -326,6 +358,10 @@ int run_export(const Invocation& call) {
     if (call.app.count("--simplify") > 0 && !a.simplify)  // CLI11 reads "" as no value
         bad_input("--simplify needs a bound in (0, 1]");
     check_options_used(call.app, choose_format(a));
+    for (const char* option : {"--simplify-floor", "--simplify-refit", "--simplify-budget"})
+        if (call.app.count(option) > 0 && !a.simplify)
+            bad_input(std::string(option) + " applies to a light mesh only; give --simplify");
+    if (a.simplify) check_simplify_options(simplify_options(a), kSimplifyNames);
     export_bake(a);
     return kExitOk;
 }

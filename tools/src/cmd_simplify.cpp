@@ -37,13 +37,25 @@ void check_bound(double error, const std::string& option) {
 
 }  // namespace
 
+void check_simplify_options(const exporter::SimplifyOptions& options,
+                            const SimplifyOptionNames& names) {
+    check_bound(options.error, names.error);
+    if (!(options.floor >= 0.0 && options.floor <= 1.0))
+        bad_input(names.prefix + "floor " + std::to_string(options.floor) + ": must be in [0, 1]");
+    if (!(options.budget >= 0.0 && options.budget <= 1.0))
+        bad_input(names.prefix + "budget " + std::to_string(options.budget) +
+                  ": must be in [0, 1] (e.g. 0.005)");
+}
+
 visdb::BakeMesh simplify_mesh(const visdb::Bake& bake, const exporter::SimplifyOptions& options,
-                              const std::string& option) {
-    check_bound(options.error, option);
+                              const SimplifyOptionNames& names) {
+    check_simplify_options(options, names);
     exporter::SimplifyStats stats;
     visdb::BakeMesh mesh = exporter::simplify(bake.mesh, options, &stats);
     std::cerr << "simplify: bake '" << bake.name << "' within " << options.error * 100.0
-              << " % of its irradiance: " << exporter::to_string(stats) << "\n";
+              << " % of its irradiance (floor " << options.floor << ", refit "
+              << (options.refit ? "true" : "false") << ", budget " << options.budget
+              << "): " << exporter::to_string(stats) << "\n";
     return mesh;
 }
 
@@ -73,11 +85,10 @@ void add_simplify(CLI::App& app) {
 
 int run_simplify(const Invocation&) {
     const SimplifyArgs& s = state();
-    check_bound(s.error, "--error");
-    if (!(s.floor >= 0.0 && s.floor <= 1.0))
-        bad_input("--floor " + std::to_string(s.floor) + ": must be in [0, 1]");
-    if (!(s.budget >= 0.0 && s.budget <= 1.0))
-        bad_input("--budget " + std::to_string(s.budget) + ": must be in [0, 1] (e.g. 0.005)");
+    const exporter::SimplifyOptions options{
+        .error = s.error, .floor = s.floor, .refit = s.refit, .budget = s.budget};
+    const SimplifyOptionNames names{.error = "--error", .prefix = "--"};
+    check_simplify_options(options, names);
     visdb::Store store = open_db(s.db);
     store.check_writable();  // before the work
     visdb::Bake b = load_bake_for(store, s.db, s.bake, "simplify");
@@ -86,8 +97,7 @@ int run_simplify(const Invocation&) {
     if (b.name == source)
         bad_input("--name " + b.name +
                   ": the simplified bake would replace the bake it is made of");
-    b.mesh = simplify_mesh(
-        b, {.error = s.error, .floor = s.floor, .refit = s.refit, .budget = s.budget}, "--error");
+    b.mesh = simplify_mesh(b, options, names);
     // The light groups' shades belong to the full mesh's vertices: the light mesh keeps none
     // (a light scene of it: export --simplify --scene-mix from the full bake)
     b.light_groups.clear();
