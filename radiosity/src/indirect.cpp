@@ -272,6 +272,9 @@ class Solver {
         m_shoot.occluders_first = m_occluders;
         m_shoot.targets = m_targets.get();
         shoot_lights();
+        // The lights' shots onto the elements keep the finer masks; a row's form factors are
+        // sums over many pixels, where one translucent sample per undersampled piece does
+        m_shoot.fine_masks = m_options.row_fine_masks;
         m_r.resize(m_ne);
         m_B.assign(m_ne, visdb::Rgb(0.0));
         for (std::size_t e = 0; e < m_ne; ++e) m_r[e] = m_sol.elements[e].reflectance * m_H[e];

@@ -337,10 +337,25 @@ class LocalIds {
 template <int S>
 class ClosedPixels;  // below: occlusion culling
 
+// A piece that holds none of pixel `pixel`'s samples, without finer masks: the one sample
+// (row k, column c) holding its centroid, translucent by its area over a sample's, through a
+// local patch of its own (that opacity); its form factor goes to the patch's target.
+template <int S>
+void translucent_sample(std::uint32_t patch, std::size_t pixel, int k, int c, double area,
+                        double depth, FragmentBuffer<S>& out) {
+    Mask<S> one;
+    one.set(k, c);
+    const auto id = static_cast<std::uint32_t>(out.patch_of.size());
+    out.patch_of.push_back(out.patch_of[patch]);
+    out.opacity.push_back(out.opacity[patch] * std::min(1.0, area * S * S));
+    out.fragments.push_back(
+        {static_cast<std::uint32_t>(pixel), id, patch, static_cast<float>(depth), kNoPatch, one});
+}
+
 template <int S>
 void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
                        std::uint32_t patch, FragmentBuffer<S>& out, std::size_t& undersampled,
-                       const ClosedPixels<S>* closed) {
+                       const ClosedPixels<S>* closed, bool fine_masks) {
     const auto dmin = static_cast<float>(plane.fallback);
     const int W = hc.width(face), H = hc.height(face);
     const auto [ymin, ymax] = y_extent(p);
@@ -396,16 +411,25 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
                 }
                 const Poly2& px = *piece;
                 if (px.size() < 3 || std::abs(signed_area2(px)) <= 1e-14) continue;
+                // Centroid of the piece inside the pixel: depth, and the sample of last resort
+                glm::dvec2 c(0.0);
+                for (const auto& v : px) c += v;
+                c /= static_cast<double>(px.size());
+                ++undersampled;
+                if (!fine_masks) {
+                    translucent_sample(patch, pixel,
+                                       std::clamp(static_cast<int>((c.y - y0) * S), 0, S - 1),
+                                       std::clamp(static_cast<int>((c.x - i) * S), 0, S - 1),
+                                       0.5 * std::abs(signed_area2(px)),
+                                       plane.depth(hc.proj_a(c.x), hc.proj_b(face, c.y)), out);
+                    continue;
+                }
                 if (!fine_ready) {
                     fine.compute(p, y0);
                     fine_ready = true;
                 }
                 long long fine_count, fine_x, fine_y;
                 Mask<2 * S> fm = fine.mask(i, fine_count, fine_x, fine_y);
-                // Centroid of the piece inside the pixel: depth, and the sample of last resort
-                glm::dvec2 c(0.0);
-                for (const auto& v : px) c += v;
-                c /= static_cast<double>(px.size());
                 if (fm.empty()) {
                     const int kc = std::clamp(static_cast<int>((c.y - y0) * 2 * S), 0, 2 * S - 1);
                     const int cc = std::clamp(static_cast<int>((c.x - i) * 2 * S), 0, 2 * S - 1);
@@ -413,7 +437,6 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
                 }
                 fine_index = static_cast<std::uint32_t>(out.fine.size());
                 out.fine.push_back(fm);
-                ++undersampled;
                 sx = c.x;
                 sy = c.y;
             } else {
@@ -743,7 +766,8 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
                 rasterize_points(hc, face, p, plane, local_id, buffer);
             else
                 rasterize_abuffer<S>(hc, face, p, plane, local_id, buffer,
-                                     result.undersampled_pixels, cull ? &closed : nullptr);
+                                     result.undersampled_pixels, cull ? &closed : nullptr,
+                                     options.fine_masks || !(options.sparse || options.targets));
             if (options.targets) retarget(id, face, first);
             if (opaque) closed.add(buffer, first);
         });

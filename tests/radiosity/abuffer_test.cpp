@@ -103,6 +103,64 @@ TEST(ABuffer, UndersampledPatchGetsFinerMask) {
     EXPECT_EQ(zb.form_factor[0] + zb.form_factor[1], 0.0);
 }
 
+// Per-square form factors (the two triangles of square q are patches 2q and 2q + 1) from
+// the origin looking up, sparse (as the elements' rows shoot), with or without finer masks.
+std::vector<double> sparse_square_ff(const std::vector<Patch>& p, std::size_t squares,
+                                     bool fine_masks, std::size_t& undersampled) {
+    ShootOptions o;
+    o.occlusion = false;
+    o.sparse = true;
+    o.fine_masks = fine_masks;
+    const ShootResult res = shoot(ShooterFrame::at({0, 0, 0}, {0, 0, 1}), p, Hemicube(50), o);
+    std::vector<double> f(squares, 0.0);
+    for (const PatchFormFactor& h : res.hits) f[h.patch / 2] += h.ff;
+    undersampled = res.undersampled_pixels;
+    return f;
+}
+
+// Without finer masks (ShootOptions::fine_masks, the elements' rows) a piece holding no
+// sample takes one translucent sample of its area over the sample's. Triangles under a
+// sample's size (1 cm squares at 3 m; a sample is 1.5 cm there at R = 50, 8 × 8) and squares of
+// two pixels, whose edges leave sampleless slivers, against their closed forms.
+TEST(ABuffer, TranslucentSamplesKeepUndersampledPiecesFormFactors) {
+    for (const double size : {0.01, 0.25}) {
+        SCOPED_TRACE(size);
+        std::vector<double> exact;
+        const auto p = small_patches(size, exact);
+        std::size_t undersampled_fine = 0, undersampled_translucent = 0;
+        const std::vector<double> fine = sparse_square_ff(p, exact.size(), true, undersampled_fine);
+        const std::vector<double> translucent =
+            sparse_square_ff(p, exact.size(), false, undersampled_translucent);
+        EXPECT_GT(undersampled_fine, 0u);
+        EXPECT_EQ(undersampled_translucent, undersampled_fine);  // the same pieces
+        double rms_fine = 0.0, rms_translucent = 0.0, sum_exact = 0.0, sum_translucent = 0.0,
+               sum_fine = 0.0;
+        for (std::size_t q = 0; q < exact.size(); ++q) {
+            rms_fine += std::pow(fine[q] / exact[q] - 1.0, 2);
+            rms_translucent += std::pow(translucent[q] / exact[q] - 1.0, 2);
+            sum_exact += exact[q];
+            sum_fine += fine[q];
+            sum_translucent += translucent[q];
+        }
+        rms_fine = std::sqrt(rms_fine / static_cast<double>(exact.size()));
+        rms_translucent = std::sqrt(rms_translucent / static_cast<double>(exact.size()));
+        std::cout << size << " m squares at 3 m, rms relative form-factor error: finer masks "
+                  << rms_fine << ", translucent samples " << rms_translucent << "; sums "
+                  << sum_fine / sum_exact << " and " << sum_translucent / sum_exact
+                  << " of exact\n";
+        // Pieces that hold a sample are point sampled either way; the ones that hold none
+        // take a's share (a/s of a sample) instead of at least one fine sample (s/4), so the
+        // tiny squares' excess is smaller, and the large squares' sum as good
+        if (size < 0.1) {
+            EXPECT_LT(sum_translucent, sum_fine);
+            EXPECT_LT(rms_translucent, rms_fine);
+        } else {
+            EXPECT_NEAR(sum_translucent / sum_exact, 1.0, 0.025);
+            EXPECT_LE(rms_translucent, rms_fine + 0.005);
+        }
+    }
+}
+
 // Occlusion lists (Algorithm 2) on a hand-built stack: translucent pane, opaque occluder,
 // receiver, and a patch hidden entirely behind the receiver.
 TEST(ABuffer, OcclusionListsOfAHandBuiltStack) {

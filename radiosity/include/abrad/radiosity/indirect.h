@@ -64,6 +64,9 @@ struct IndirectOptions {
     Visibility method = Visibility::ABuffer;
     int resolution = 50;      ///< hemicube of the lights' shots onto the elements
     int row_resolution = 50;  ///< hemicube of the elements' rows
+    /// Undersampled pieces in the rows' hemicubes get finer masks (ShootOptions::fine_masks);
+    /// false: one translucent sample each, as accurate for a row's sums and a quarter cheaper
+    bool row_fine_masks = false;
     int subpixels = 8;
 };
 

@@ -61,6 +61,12 @@ struct ShootOptions {
     /// slabs), so that the pixels they close hide what lies behind them from the start, not
     /// only once the walk reaches them. Form factors are unchanged. Not owned.
     std::span<const std::uint32_t> occluders_first{};
+    /// A piece of a patch that holds none of a pixel's S × S samples gets a 2S × 2S mask of
+    /// its own (the paper's rule for undersampled patches). False (with `sparse` or
+    /// `targets`): one S × S sample, the one holding its centroid, translucent by its area
+    /// over the sample's, so that it stops its form factor on average without the finer
+    /// masks (docs/algorithms.md#a-buffer). For form factors summed over many pixels.
+    bool fine_masks = true;
 };
 
 /// A patch and its form factor from the shooting point.
