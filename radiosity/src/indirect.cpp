@@ -909,7 +909,8 @@ visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3
                                     .occlusion = false,
                                     .bvh = &*m_bvh,
                                     .sparse = true,
-                                    .occluders_first = m_occluders});
+                                    .occluders_first = m_occluders,
+                                    .fine_masks = false});
     visdb::Rgb h(0.0);
     for (const auto [j, f] : shot.hits)
         // A surface reflects from its front only

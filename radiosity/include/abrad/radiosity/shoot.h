@@ -65,7 +65,8 @@ struct ShootOptions {
     /// its own (the paper's rule for undersampled patches). False (with `sparse` or
     /// `targets`): one S × S sample, the one holding its centroid, translucent by its area
     /// over the sample's, so that it stops its form factor on average without the finer
-    /// masks (docs/algorithms.md#a-buffer). For form factors summed over many pixels.
+    /// masks (docs/algorithms.md#a-buffer). For form factors summed over many pixels (the
+    /// elements' rows, the gathers of probes and grids).
     bool fine_masks = true;
 };
 
