@@ -410,18 +410,18 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
                     piece = &clipped;
                 }
                 const Poly2& px = *piece;
-                if (px.size() < 3 || std::abs(signed_area2(px)) <= 1e-14) continue;
+                const double area2 = std::abs(signed_area2(px));
+                if (px.size() < 3 || area2 <= 1e-14) continue;
                 // Centroid of the piece inside the pixel: depth, and the sample of last resort
                 glm::dvec2 c(0.0);
                 for (const auto& v : px) c += v;
                 c /= static_cast<double>(px.size());
                 ++undersampled;
                 if (!fine_masks) {
-                    translucent_sample(patch, pixel,
-                                       std::clamp(static_cast<int>((c.y - y0) * S), 0, S - 1),
-                                       std::clamp(static_cast<int>((c.x - i) * S), 0, S - 1),
-                                       0.5 * std::abs(signed_area2(px)),
-                                       plane.depth(hc.proj_a(c.x), hc.proj_b(face, c.y)), out);
+                    translucent_sample(
+                        patch, pixel, std::clamp(static_cast<int>((c.y - y0) * S), 0, S - 1),
+                        std::clamp(static_cast<int>((c.x - i) * S), 0, S - 1), 0.5 * area2,
+                        plane.depth(hc.proj_a(c.x), hc.proj_b(face, c.y)), out);
                     continue;
                 }
                 if (!fine_ready) {

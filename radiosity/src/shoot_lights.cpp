@@ -336,9 +336,9 @@ std::vector<glm::dvec3> opening_corners(const visdb::Luminaire& lum) {
 // Distance from `x` to the axis-aligned box of triangle `r`: a lower bound of its distance to
 // any point of the triangle.
 double distance_to_box(const glm::dvec3& x, const Patch& r) {
-    const glm::dvec3 lo = glm::min(glm::min(r.p[0], r.p[1]), r.p[2]);
-    const glm::dvec3 hi = glm::max(glm::max(r.p[0], r.p[1]), r.p[2]);
-    return glm::length(glm::max(glm::max(lo - x, x - hi), glm::dvec3(0.0)));
+    Box box;
+    for (const glm::dvec3& p : r.p) box.grow(p);
+    return std::sqrt(Bvh::distance2(box, x));
 }
 
 // Removes segments equal to an earlier one (either way round): a contact edge, cast alike from
