@@ -155,6 +155,7 @@ std::vector<visdb::LightGroupShades> shade_light_groups(
     const std::vector<std::string> target_group = triangle_groups(scene, target);
     BakeOptions o = options;
     o.convergence = nullptr;
+    o.cluster = nullptr;  // rank 0 alone shades the groups
     std::vector<visdb::LightGroupShades> out;
     for (std::size_t i = 0; i < groups.size(); ++i) {
         if (progress) progress("light groups", i, groups.size());
@@ -193,16 +194,17 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     if (options.dm)
         dm = mesh_discontinuities(geometry, bvh, regions, shots, options, &stats, progress);
 
+    // Interreflection on the imported mesh's elements (over the ranks, each its share of the
+    // hemicubes: every rank ends with the same solution)
+    std::optional<IndirectSolution> indirect;
+    if (options.bounces != 0) indirect = interreflect(geometry, regions, options, &stats, progress);
+
     // The other ranks have given their share (cluster.h): rank 0 finishes the bake
     if (options.cluster && options.cluster->size() > 1) {
         result.parameters.emplace_back("ranks", std::to_string(options.cluster->size()));
         options.cluster->add_up_sent();
         if (options.cluster->rank() != 0) return result;
     }
-
-    // Interreflection on the imported mesh's elements
-    std::optional<IndirectSolution> indirect;
-    if (options.bounces != 0) indirect = interreflect(geometry, regions, options, &stats, progress);
 
     // Shade vertices: direct irradiance at every output vertex, then B = E + ρ(direct +
     // indirect)

@@ -10,16 +10,18 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <numeric>
 #include <optional>
 #include <string>
 
+#include "abrad/check.h"
+#include "abrad/radiosity/cluster.h"
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/radiosity/hemicube.h"
 #include "abrad/radiosity/point_source.h"
@@ -47,6 +49,43 @@ struct Row {
     double total = 0.0;  // Σ F over fronts and backs: 1 − total escapes
     bool known = false;
 };
+
+// A row as bytes in the ranks' exchange (Cluster::all_gather): the header, then its entries.
+// `item` is the row's place in the batch, `seconds` what making it took (the cost model's
+// measurement, which every rank must see alike so that all split the next batch alike).
+struct RowHeader {
+    std::uint32_t item = 0;
+    std::uint32_t entries = 0;
+    double front = 0.0, total = 0.0, seconds = 0.0;
+};
+static_assert(sizeof(RowHeader) == 32 && sizeof(Entry) == 8, "rows travel as packed bytes");
+
+void pack_row(std::uint32_t item, const Row& row, double seconds, std::vector<std::byte>& out) {
+    const RowHeader h{item, static_cast<std::uint32_t>(row.entries.size()), row.front, row.total,
+                      seconds};
+    const auto header = std::as_bytes(std::span(&h, 1));
+    const auto entries = std::as_bytes(std::span(row.entries));
+    out.insert(out.end(), header.begin(), header.end());
+    out.insert(out.end(), entries.begin(), entries.end());
+}
+
+// Reads the row at `at` of `bytes` (pack_row's) into `row`; returns its header and moves `at`
+// past it.
+RowHeader unpack_row(std::span<const std::byte> bytes, std::size_t& at, Row& row) {
+    RowHeader h;
+    ABRAD_CHECK(at + sizeof h <= bytes.size(), "a row's header runs past the exchange");
+    std::memcpy(&h, bytes.data() + at, sizeof h);
+    at += sizeof h;
+    const std::size_t n = std::size_t{h.entries} * sizeof(Entry);
+    ABRAD_CHECK(at + n <= bytes.size(), "a row's entries run past the exchange");
+    row.entries.resize(h.entries);
+    if (n > 0) std::memcpy(row.entries.data(), bytes.data() + at, n);
+    at += n;
+    row.front = h.front;
+    row.total = h.total;
+    row.known = true;
+    return h;
+}
 
 // Elements smaller than this fraction of a cell are needles or slivers: whole small triangles,
 // or the sliver pieces gathered in their triangle's main element (make_elements).
@@ -279,6 +318,8 @@ class Solver {
         m_B.assign(m_ne, visdb::Rgb(0.0));
         for (std::size_t e = 0; e < m_ne; ++e) m_r[e] = m_sol.elements[e].reflectance * m_H[e];
         m_rows.resize(m_shooters.size());
+        m_region_row_seconds.assign(m_in.region_normal.size(), 0.0);
+        m_region_rows.assign(m_in.region_normal.size(), 0);
         for (std::size_t e = 0; e < m_ne; ++e)
             m_rho_mean += channel_mean(m_sol.elements[e].reflectance) * m_sol.elements[e].area;
         if (m_total_area > 0.0) m_rho_mean /= m_total_area;
@@ -576,7 +617,11 @@ class Solver {
         m_escaped += channel_mean(power) * std::max(0.0, share - row.total);
     }
 
-    // Direct light onto the elements: one hemicube per light triangle (the paper's shot)
+    // Direct light onto the elements: one hemicube per light triangle (the paper's shot), and
+    // two per point source whose pixels carry fractions of its flux (point_source.h), so that
+    // a luminaire's row holds flux fractions. The rows are made in parallel (over the ranks,
+    // when shared) and added in order: the sums do not depend on which thread or rank made a
+    // row.
     void shoot_lights() {
         m_H.assign(m_ne, visdb::Rgb(0.0));
         std::vector<std::uint32_t> lights;
@@ -587,39 +632,91 @@ class Solver {
             throw InputError(
                 "the scene has no light sources (no material with emittance > 0, no luminaire)");
         }
+        std::vector<std::array<PointShooter, 2>> points;
+        for (const visdb::Luminaire& lum : m_in.luminaires) {
+            m_sol.energy.emitted += channel_mean(luminaire_power(lum));
+            points.push_back(point_shooters(lum, m_options.resolution));
+        }
         for (const std::uint32_t l : lights)
             m_sol.energy.emitted += channel_mean(m_in.emittance[l]) * area(m_in.patches[l]);
-        shoot_luminaires();
+        // Items: each luminaire's two hemicubes, then the light triangles (alike in cost)
+        const std::size_t np = 2 * points.size();
+        std::vector<Row> rows(np + lights.size());
+        const std::vector<double> cost(rows.size(), 1.0);
         progress("interreflection: lights", 0, lights.size(), 1.0);
-        std::mutex merge;
-        tbb::parallel_for(std::size_t{0}, lights.size(), [&](std::size_t li) {
-            const Patch& light = m_in.patches[lights[li]];
-            const ShooterFrame frame = frame_of(light);
-            const ShootResult shot = shoot(frame, m_in.patches, m_hemicube, m_shoot);
-            Row row;
-            fold_row(shot.hits, m_sol.elements, frame, area(light), &m_small, m_region_normal, row);
-            const visdb::Rgb power = m_in.emittance[lights[li]] * area(light);
-            std::lock_guard lock(merge);
-            add_shot(row, power);
-        });
+        make_rows(
+            cost, [&](std::size_t k) -> Row& { return rows[k]; },
+            [&](std::size_t k, Row& row) {
+                if (k < np) {
+                    const PointShooter& s = points[k / 2][k % 2];
+                    fold_row(shoot(s.frame, m_in.patches, s.hemicube, m_shoot).hits, m_sol.elements,
+                             s.frame, 0.0, nullptr, m_region_normal, row);
+                    return;
+                }
+                const Patch& light = m_in.patches[lights[k - np]];
+                const ShooterFrame frame = frame_of(light);
+                fold_row(shoot(frame, m_in.patches, m_hemicube, m_shoot).hits, m_sol.elements,
+                         frame, area(light), &m_small, m_region_normal, row);
+            },
+            "interreflection: lights");
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            if (k < np) {
+                const std::vector<double>& w = points[k / 2][k % 2].hemicube.deltas();
+                add_shot(rows[k], luminaire_power(m_in.luminaires[k / 2]),
+                         std::accumulate(w.begin(), w.end(), 0.0));
+            } else {
+                const std::uint32_t l = lights[k - np];
+                add_shot(rows[k], m_in.emittance[l] * area(m_in.patches[l]));
+            }
+        }
         for (std::size_t e = 0; e < m_ne; ++e) m_sol.elements[e].direct = m_H[e];
     }
 
-    // Direct light of the luminaires onto the elements: two hemicubes per point source whose
-    // pixels carry fractions of its flux (point_source.h), so a row's F is the flux fraction
-    void shoot_luminaires() {
-        for (const visdb::Luminaire& lum : m_in.luminaires) {
-            const visdb::Rgb power = luminaire_power(lum);
-            m_sol.energy.emitted += channel_mean(power);
-            const std::array<PointShooter, 2> shooters = point_shooters(lum, m_options.resolution);
-            for (const PointShooter& s : shooters) {
+    // Makes the rows of items 0..cost.size()−1: row_of(k) = make(k, row_of(k)). Alone, in
+    // parallel; shared over MPI ranks, each rank makes its share (Cluster::share by `cost`) and
+    // every rank receives every row, in slices so that no exchange grows without bound.
+    // Returns the seconds each row took to make, the same on every rank.
+    template <class RowOf, class Make>
+    std::vector<double> make_rows(std::span<const double> cost, const RowOf& row_of,
+                                  const Make& make, const char* label) {
+        const std::size_t n = cost.size();
+        Cluster* const cluster = m_options.cluster;
+        const bool shared = cluster && cluster->size() > 1;
+        std::vector<double> secs(n, 0.0);
+        constexpr std::size_t kSlice = 4096;  // rows per exchange (a few tens of MB)
+        for (std::size_t k0 = 0; k0 < n; k0 += shared ? kSlice : n) {
+            const std::size_t k1 = shared ? std::min(n, k0 + kSlice) : n;
+            std::vector<std::uint32_t> mine;
+            if (shared) {
+                mine = cluster->share(cost.subspan(k0, k1 - k0));
+                for (std::uint32_t& k : mine) k += static_cast<std::uint32_t>(k0);
+            } else {
+                mine.resize(n);
+                std::iota(mine.begin(), mine.end(), 0u);
+            }
+            // A large batch reports its own hemicubes (a round can take minutes)
+            std::optional<ParallelProgress> batch;
+            if (mine.size() >= 64) batch.emplace(m_progress, label, mine.size());
+            tbb::parallel_for(std::size_t{0}, mine.size(), [&](std::size_t i) {
+                const auto t0 = Clock::now();
+                make(std::size_t{mine[i]}, row_of(mine[i]));
+                secs[mine[i]] = std::chrono::duration<double>(Clock::now() - t0).count();
+                if (batch) batch->add(1);
+            });
+            batch.reset();
+            if (!shared) break;
+            std::vector<std::byte> bytes;
+            for (const std::uint32_t k : mine) pack_row(k, row_of(k), secs[k], bytes);
+            const std::vector<std::byte> all = cluster->all_gather(bytes, "interreflection");
+            for (std::size_t at = 0; at < all.size();) {
                 Row row;
-                fold_row(shoot(s.frame, m_in.patches, s.hemicube, m_shoot).hits, m_sol.elements,
-                         s.frame, 0.0, nullptr, m_region_normal, row);
-                const std::vector<double>& w = s.hemicube.deltas();
-                add_shot(row, power, std::accumulate(w.begin(), w.end(), 0.0));
+                const RowHeader h = unpack_row(all, at, row);
+                ABRAD_CHECK(h.item >= k0 && h.item < k1, "a row from another slice");
+                row_of(h.item) = std::move(row);
+                secs[h.item] = h.seconds;
             }
         }
+        return secs;
     }
 
     double unshot_power() const {
@@ -645,33 +742,54 @@ class Solver {
     }
 
     // Rows (one per shooter): computed in parallel batches when first needed, kept while the
-    // cache has room
+    // cache has room (counted by entries, which all ranks agree on)
     void compute_rows(const std::vector<std::uint32_t>& wanted) {
         std::vector<std::uint32_t> todo;
         for (const std::uint32_t e : wanted)
             if (!m_rows[e].known) todo.push_back(e);
-        // A large batch reports its own hemicubes (a round can take minutes)
-        std::optional<ParallelProgress> batch;
-        if (todo.size() >= 64) batch.emplace(m_progress, "interreflection: hemicubes", todo.size());
-        tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t k) {
-            if (batch) batch->add(1);
-            const ShooterFrame& frame = m_shooters[todo[k]];
-            const ShootResult shot = shoot(frame, m_in.patches, m_row_hemicube, m_shoot);
-            double shooter_area = 0.0;
-            for (const std::uint32_t e : members_of(todo[k]))
-                shooter_area += m_sol.elements[e].area;
-            fold_row(shot.hits, m_sol.elements, frame, shooter_area, &m_small, m_region_normal,
-                     m_rows[todo[k]]);
-        });
+        std::vector<double> cost(todo.size());
+        for (std::size_t k = 0; k < todo.size(); ++k) cost[k] = row_cost(todo[k]);
+        const std::vector<double> secs = make_rows(
+            cost, [&](std::size_t k) -> Row& { return m_rows[todo[k]]; },
+            [&](std::size_t k, Row& row) {
+                const ShooterFrame& frame = m_shooters[todo[k]];
+                const ShootResult shot = shoot(frame, m_in.patches, m_row_hemicube, m_shoot);
+                double shooter_area = 0.0;
+                for (const std::uint32_t e : members_of(todo[k]))
+                    shooter_area += m_sol.elements[e].area;
+                fold_row(shot.hits, m_sol.elements, frame, shooter_area, &m_small, m_region_normal,
+                         row);
+            },
+            "interreflection: hemicubes");
+        for (std::size_t k = 0; k < todo.size(); ++k) {
+            const std::uint32_t r = region_of_shooter(todo[k]);
+            m_region_row_seconds[r] += secs[k];
+            ++m_region_rows[r];
+            m_row_seconds += secs[k];
+        }
         m_sol.rows_computed += todo.size();
         for (const std::uint32_t e : todo)
-            m_cache_bytes += m_rows[e].entries.capacity() * sizeof(Entry);
+            m_cache_bytes += m_rows[e].entries.size() * sizeof(Entry);
+    }
+
+    std::uint32_t region_of_shooter(std::uint32_t s) const {
+        return m_sol.elements[members_of(s)[0]].region;
+    }
+
+    // What shooter s's row should cost, for sharing a batch over the ranks: the mean of the
+    // rows measured in its region so far (a hemicube costs what it sees, and a region sees
+    // about the same from each of its shooters), else of all rows, else alike
+    double row_cost(std::uint32_t s) const {
+        const std::uint32_t r = region_of_shooter(s);
+        if (m_region_rows[r] > 0) return m_region_row_seconds[r] / m_region_rows[r];
+        if (m_sol.rows_computed > 0) return m_row_seconds / double(m_sol.rows_computed);
+        return 1.0;
     }
 
     void release_rows(const std::vector<std::uint32_t>& used) {
         if (m_cache_bytes <= m_options.row_cache_bytes) return;
         for (const std::uint32_t e : used) {
-            m_cache_bytes -= m_rows[e].entries.capacity() * sizeof(Entry);
+            m_cache_bytes -= m_rows[e].entries.size() * sizeof(Entry);
             m_rows[e] = Row{};
         }
     }
@@ -858,6 +976,10 @@ class Solver {
     std::vector<visdb::Rgb> m_H, m_r, m_B;
     std::vector<Row> m_rows;
     std::size_t m_cache_bytes = 0;
+    // The cost model of rows (row_cost): seconds and rows per region, seconds in all
+    std::vector<double> m_region_row_seconds;
+    std::vector<std::uint32_t> m_region_rows;
+    double m_row_seconds = 0.0;
     double m_back_absorbed = 0.0, m_escaped = 0.0;
 };
 

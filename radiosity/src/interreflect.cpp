@@ -33,7 +33,8 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
                              .method = options.method,
                              .resolution = options.resolution,
                              .row_resolution = options.element_resolution,
-                             .subpixels = options.subpixels};
+                             .subpixels = options.subpixels,
+                             .cluster = options.cluster};
     IndirectSolution s = solve_indirect(input, io, progress);
     if (options.convergence) *options.convergence = s.curve;
     // Every watt emitted is absorbed, escaped or still unshot (an identity of the shots)

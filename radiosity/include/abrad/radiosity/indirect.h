@@ -32,6 +32,8 @@
 
 namespace abrad::radiosity {
 
+class Cluster;
+
 /// The scene as the interreflection solver sees it. All spans are per triangle (patch)
 /// except `region_normal`, which is per region; coordinates in metres.
 struct IndirectInput {
@@ -68,6 +70,12 @@ struct IndirectOptions {
     /// false: one translucent sample each, as accurate for a row's sums and a quarter cheaper
     bool row_fine_masks = false;
     int subpixels = 8;
+    /// When set, the MPI ranks that share the solve (cluster.h): every rank calls
+    /// solve_indirect with the same input; each computes its share of the hemicubes (the
+    /// lights' and the shooters' rows, split by measured cost) and receives the others', so
+    /// that every rank shoots the same rows in the same order and holds the same solution,
+    /// whatever the number of ranks.
+    Cluster* cluster = nullptr;
 };
 
 /// One point of the convergence curve.
