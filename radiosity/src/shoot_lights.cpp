@@ -145,15 +145,26 @@ void shade_vertices_exactly(const BakeGeometry& g, const Bvh& bvh, std::uint32_t
                         if (p.occluder != l) listed.push_back(p.occluder);
                 std::sort(listed.begin(), listed.end());
                 listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
+                const glm::dvec3 n(g.mesh.normals[v]);
+                // The listed occluders first: when they hide the whole light (a vertex behind
+                // a wall, in another room), more occluders cannot show any of it, and the
+                // shaft query, the dearer part, is not needed
+                occ.clear();
+                for (const std::uint32_t id : listed) occ.push_back(&g.patches[id]);
+                VisibleStats listed_only;
+                if (visible_form_factor(x, n, light, occ, &listed_only) <= 0.0) {
+                    vs.occluders_tested += listed_only.occluders_tested;
+                    vs.occluders_projected += listed_only.occluders_projected;
+                    continue;  // out.vertex[v] stays 0
+                }
                 ids = listed;
                 for_each_shadow_candidate(bvh, g.patches, l, x, [&](std::uint32_t id) {
                     if (!std::binary_search(listed.begin(), listed.end(), id)) ids.push_back(id);
                 });
-                occ.clear();
-                for (std::uint32_t id : ids) occ.push_back(&g.patches[id]);
+                for (std::size_t k = listed.size(); k < ids.size(); ++k)
+                    occ.push_back(&g.patches[ids[k]]);
                 touched.clear();
-                const double f =
-                    visible_form_factor(x, glm::dvec3(g.mesh.normals[v]), light, occ, &vs);
+                const double f = visible_form_factor(x, n, light, occ, &vs);
                 for (std::uint32_t t : touched) missed += t >= listed.size();
                 out.vertex[v] = g.emittance[l] * f;
             }
