@@ -210,8 +210,8 @@ TEST(DmBake, ABuildingIsRefinedAsFinelyAsARoom) {
 }
 
 // Issue 14: a shadow segment earns a mesh edge only where its light departs from linear across
-// it, within the refinement's shortest edge, by more than a twentieth of the refinement's
-// tolerance of the irradiance there (here 0.25 %). Under the 1 m panel at 1.5 m: a 0.4 m square
+// it, within the refinement's shortest edge, by more than a fiftieth of the refinement's
+// tolerance of the irradiance there (here 0.1 %). Under the 1 m panel at 1.5 m: a 0.4 m square
 // half way (a shadow as deep as the light, `room`'s occluder) casts its edges; a 1 cm square at
 // the same place (tiny: it hides at most 2e-4 of the light) casts none, though its edges are
 // projected.

@@ -471,14 +471,15 @@ TEST(ShadowEdges, IgnoresReceiverLightAndDuplicates) {
 // How far the light departs from linear across a shadow segment (shadow_contrast), against
 // the light there: a 0.4 m square half way under a 0.2 m light triangle at 1.5 m has a hard
 // umbra edge (within 5 cm of it the light departs from linear by a good part of its value), a
-// 2 mm square hides at most 0.05 % of the light and departs by less than the bake's criterion:
-// a twentieth of the refinement's tolerance (0.05) of the light there, 0.25 %. (A 1 cm square
-// hides 1.3 % of this small light and departs by 0.9 %: it earns its edges.)
+// 2 mm square hides at most 0.05 % of the light: the departure is the light's own smooth
+// fall-off over ±5 cm, under 0.3 % of it (a 1 cm square hides 1.3 % of this small light and
+// departs by 0.9 %). The bake's criterion (a fiftieth of the refinement's tolerance, 0.1 % of
+// the light) is tested on a bake: DmBake.OnlyAStrongOccluderCastsMeshEdges.
 TEST(ShadowEdges, ContrastOfAStrongAndATinyOccluder) {
     const Patch light = light_down({0, 0, 1.5});
     const Patch floor = floor_big();
     const Patch* lights[1] = {&light};
-    constexpr double kCriterion = 0.05 * 0.05;
+    constexpr double kStrong = 0.1, kTiny = 3e-3;
     for (const double half : {0.2, 0.001}) {
         const std::vector<Patch> occ = {
             tri({-half, -half, 0.75}, {half, -half, 0.75}, {half, half, 0.75}),
@@ -495,10 +496,10 @@ TEST(ShadowEdges, ContrastOfAStrongAndATinyOccluder) {
             highest = std::max(highest, c.change / c.level);
         }
         if (half > 0.1) {
-            EXPECT_GT(highest, 0.1) << dump(segments);
-            EXPECT_GT(lowest, kCriterion) << dump(segments);
+            EXPECT_GT(highest, kStrong) << dump(segments);
+            EXPECT_GT(lowest, kTiny) << dump(segments);
         } else {
-            EXPECT_LT(highest, kCriterion) << dump(segments);
+            EXPECT_LT(highest, kTiny) << dump(segments);
         }
     }
 }

@@ -88,7 +88,8 @@ struct BakeOptions {
     /// Split an edge when its midpoint's exact irradiance departs from the linear
     /// interpolation by more than this, relative, and by more than 1.5 times this of the
     /// receivers' mean irradiance; a shadow edge is cast only where the light changes across it
-    /// by more than a fifth of this of the irradiance there (docs/algorithms.md).
+    /// (departs from linear) by more than a fiftieth of this of the irradiance there
+    /// (docs/algorithms.md).
     double refine_tolerance = 0.05;
     /// Edges shorter than this (metres) are not split; 0: 1/128 of the model's size (its
     /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room) and at most 0.05 m, so that a
