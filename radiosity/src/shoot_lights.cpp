@@ -31,14 +31,6 @@ namespace abrad::radiosity {
 
 namespace {
 
-// A shadow segment earns a mesh edge when its emitter's light departs from linear across it,
-// within the refinement's shortest edge, by more than this fraction of the refinement's
-// tolerance of the irradiance there (docs/algorithms.md#which-shadow-edges-earn-a-mesh-edge:
-// at the whole tolerance a generated floor's field error grew by 13 %, at 1/20 the 3 x 3-room
-// floor's by 2 %; edges whose departure the refinement would not split still carry the
-// interpolation across a penumbra).
-constexpr double kEdgeContrast = 0.02;
-
 // True when the corners of `c` lie on the closed back side of the plane through `on` with
 // normal `n` (unit), within a relative 1e-9 of the span of c and `on` along n.
 bool wholly_behind(const Patch& c, const glm::dvec3& on, const glm::dvec3& n) {
@@ -797,9 +789,10 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     visdb::ShadowEdgeStats shadow_stats = totals.shadow;
     std::vector<LitSegment>& lit = sums.lit;
     if (options.dm)
-        shadow_stats.segments_weak =
-            keep_strong(g, bvh, siblings, lit, shots, kEdgeContrast * options.refine_tolerance,
-                        refine_min_edge(options, g.size), options.lights != LightModel::Centroid);
+        shadow_stats.segments_weak = keep_strong(
+            g, bvh, siblings, lit, shots, options.shadow_contrast * options.refine_tolerance,
+            refine_min_edge(options, g.size),
+            options.shadow_contrast > 0.0 && options.lights != LightModel::Centroid);
 
     if (stats) {
         // Energy: emitted power, and power arriving on the receivers (from the hemicube)

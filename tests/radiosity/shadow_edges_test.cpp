@@ -473,8 +473,8 @@ TEST(ShadowEdges, IgnoresReceiverLightAndDuplicates) {
 // umbra edge (within 5 cm of it the light departs from linear by a good part of its value), a
 // 2 mm square hides at most 0.05 % of the light: the departure is the light's own smooth
 // fall-off over ±5 cm, under 0.3 % of it (a 1 cm square hides 1.3 % of this small light and
-// departs by 0.9 %). The bake's criterion (a fiftieth of the refinement's tolerance, 0.1 % of
-// the light) is tested on a bake: DmBake.OnlyAStrongOccluderCastsMeshEdges.
+// departs by 0.9 %). The bake's criterion (shadow_contrast 0.02 of the refinement's
+// tolerance, 0.1 % of the light) is tested on a bake: DmBake.OnlyAStrongOccluderCastsMeshEdges.
 TEST(ShadowEdges, ContrastOfAStrongAndATinyOccluder) {
     const Patch light = light_down({0, 0, 1.5});
     const Patch floor = floor_big();
