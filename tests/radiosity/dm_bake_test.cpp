@@ -120,6 +120,18 @@ visdb::Scene scaled(visdb::Scene scene, double scale) {
     return scene;
 }
 
+// The default shortest edge of the refinement in `scene`: 1/128 of its size (the diagonal of
+// its bounding box), at most 0.05 m.
+double default_min_edge(const visdb::Scene& scene) {
+    glm::dvec3 lo(1e300), hi(-1e300);
+    for (const visdb::Surface& s : scene.surfaces)
+        for (const glm::dvec3& p : s.mesh.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    return std::min(0.05, glm::length(hi - lo) / 128.0);
+}
+
 // Issue 19: the refinement's lengths were metres (0.05 m shortest edge, 1e-6 m merging), so a
 // model in millimetres was refined 5 times less than the same model in metres. They are
 // fractions of the model's size now. Scaled by 2^-10 and 2^10 (exact in binary: every
@@ -134,14 +146,7 @@ TEST(DmBake, ModelsInMillimetresOrKilometresMeshAsInMetres) {
     o.bounces = 0;
     const visdb::Bake reference = bake(metres, o);
     const double e_metres = field_error_of(metres, o);
-    // The room's default shortest edge: 1/128 of its size (under the 0.05 m cap)
-    glm::dvec3 lo(1e300), hi(-1e300);
-    for (const visdb::Surface& s : metres.surfaces)
-        for (const glm::dvec3& p : s.mesh.positions) {
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
-    const double min_edge = std::min(0.05, glm::length(hi - lo) / 128.0);
+    const double min_edge = default_min_edge(metres);
     for (const double scale : {1.0 / 1024.0, 1024.0}) {
         SCOPED_TRACE("scale " + std::to_string(scale));
         const visdb::Scene model = scaled(metres, scale);

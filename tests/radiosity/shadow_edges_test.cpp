@@ -485,6 +485,7 @@ TEST(ShadowEdges, ContrastOfAStrongAndATinyOccluder) {
             tri({-half, -half, 0.75}, {half, -half, 0.75}, {half, half, 0.75}),
             tri({-half, -half, 0.75}, {half, half, 0.75}, {-half, half, 0.75})};
         std::vector<const Patch*> ptr;
+        ptr.reserve(occ.size());
         for (const Patch& o : occ) ptr.push_back(&o);
         const std::vector<ShadowSegment> segments = cast(light, LightModel::Vertices, floor, occ);
         ASSERT_FALSE(segments.empty()) << half;
