@@ -28,6 +28,11 @@ namespace abrad::radiosity {
 
 namespace {
 
+// The refinement leaves an edge whose midpoint departs from the linear interpolation by less
+// than this times the tolerance of the receivers' mean irradiance
+// (docs/algorithms.md#illumination-driven-refinement).
+constexpr double kFloorOfMean = 1.5;
+
 // Exact position (and region) as a hash key.
 struct PointKey {
     std::uint32_t region;
@@ -304,7 +309,25 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
                    std::uint64_t& evaluations, ParallelProgress& progress) {
     double h_max = 0.0;
     for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
-    const double floor = 1e-3 * h_max;
+    // The field an edge's split improves: a departure under kFloorOfMean times the tolerance
+    // of the receivers' mean irradiance (area-weighted) is left, so that dim places (the
+    // inside of a shelf, a corner behind furniture) are not refined as finely as lit ones for a
+    // gain the field, as a whole, hardly sees; and never under 1/1000 of the brightest vertex
+    // (noise)
+    double sum_ah = 0.0, sum_a = 0.0;
+    for (const glm::u32vec3& t : current.mesh.triangles) {
+        if (regions.emitter[current.vertex_region[t.x]]) continue;
+        const glm::dvec3* p = current.mesh.positions.data();
+        const double a = visdb::triangle_area(p[t.x], p[t.y], p[t.z]);
+        sum_ah += a *
+                  (visdb::channel_mean(current.irradiance[t.x]) +
+                   visdb::channel_mean(current.irradiance[t.y]) +
+                   visdb::channel_mean(current.irradiance[t.z])) /
+                  3.0;
+        sum_a += a;
+    }
+    const double h_mean = sum_a > 0.0 ? sum_ah / sum_a : 0.0;
+    const double floor = std::max(1e-3 * h_max, kFloorOfMean * options.refine_tolerance * h_mean);
     std::vector<std::uint32_t> region_start(meshed.size() + 1, 0);
     for (std::size_t r = 0; r < meshed.size(); ++r)
         region_start[r + 1] =
@@ -344,9 +367,7 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     // Lengths relative to the model's size: a model in millimetres or kilometres meshes as the
     // same model in metres would
     const double tolerance = kLengthTolerance * g.size;
-    const double min_edge = options.refine_min_edge > 0.0
-                                ? options.refine_min_edge
-                                : std::min(kMinEdgeMetres, kMinEdgeFraction * g.size);
+    const double min_edge = refine_min_edge(options, g.size);
     const RegionSources sources{region_lights(regions, shots.lights_of_triangle, tolerance),
                                 region_lights(regions, shots.luminaires_of_triangle, tolerance)};
     const auto t_dm = Clock::now();

@@ -39,8 +39,11 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
+#include <limits>
 #include <numbers>
 #include <utility>
+
+#include "abrad/radiosity/exact.h"
 
 namespace abrad::radiosity {
 
@@ -739,6 +742,38 @@ bool make_context(Context& c, const Patch& receiver, const Patch* light,
 }
 
 }  // namespace
+
+ShadowContrast shadow_contrast(std::span<const Patch* const> lights, const Patch& receiver,
+                               std::span<const Patch* const> occluders,
+                               const ShadowSegment& segment, double delta, double enough) {
+    ShadowContrast out;
+    const dvec3 rn = glm::cross(receiver.p[1] - receiver.p[0], receiver.p[2] - receiver.p[0]);
+    const dvec3 d = segment.b - segment.a;
+    const double rl = glm::length(rn);
+    if (!(rl > 0.0) || !(glm::length(d) > 0.0) || !(delta > 0.0)) return out;
+    const dvec3 n = rn / rl;
+    // The unit normal of the segment in the receiver's plane, scaled to the offset δ
+    const dvec3 m = delta * glm::normalize(glm::cross(n, d));
+    // On the lines across the segment through its middle and its ends: F at ±δ, then how far
+    // F departs from the straight line between those at 0 and ±δ/2 (the refinement's test on
+    // an edge of 2δ across the segment, at three places along it)
+    const auto f_at = [&](const dvec3& x) {
+        double f = 0.0;
+        for (const Patch* light : lights) f += visible_form_factor(x, n, *light, occluders);
+        out.level = std::max(out.level, f);
+        return f;
+    };
+    for (const double along : {0.5, 0.0, 1.0}) {
+        const dvec3 x = segment.a + along * d;
+        const double f0 = f_at(x - m), f1 = f_at(x + m);
+        for (const double t : {0.0, -0.5, 0.5}) {
+            const double linear = f0 + 0.5 * (t + 1.0) * (f1 - f0);
+            out.change = std::max(out.change, std::abs(f_at(x + t * m) - linear));
+            if (out.change >= enough) return out;
+        }
+    }
+    return out;
+}
 
 std::vector<ShadowSegment> point_shadow_edges(const glm::dvec3& source, const Patch& receiver,
                                               std::span<const Patch* const> occluders,

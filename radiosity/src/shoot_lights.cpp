@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <mutex>
 #include <numbers>
 #include <span>
@@ -85,13 +86,17 @@ bool unseen_from_centroid(const Patch& light, const Patch& r) {
     return false;
 }
 
-// A shadow segment of one light on receiver triangle j, with the light's largest unoccluded
-// irradiance on the receiver and the segment (the most it can change the light there: the
-// jump the segment may mark).
+// A shadow segment of light triangle l (kNoLight: a luminaire) on receiver triangle j, with
+// what it may change there (W/m², means over RGB): the light's largest unoccluded irradiance
+// on the receiver and the segment (the most the light can change anywhere on it), and its
+// emitter's: that times the emitter's area over the light's, and so its patch irradiance on j.
+constexpr std::uint32_t kNoLight = ~std::uint32_t{0};
 struct LitSegment {
-    std::uint32_t j;
+    std::uint32_t j, l;
     ShadowSegment segment;
-    double jump;  // mean over RGB
+    double unoccluded;
+    double emitter_unoccluded;
+    double emitter_patch;
 };
 
 // One light's shot and what it contributes, before it is added to the totals.
@@ -204,9 +209,14 @@ std::size_t edge_occluders(const BakeGeometry& g, const Bvh& bvh, std::uint32_t 
 void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
                           std::uint32_t l, const ShootResult& shot,
                           const std::vector<std::uint32_t>& receivers, LightModel model,
-                          const EmitterEdges& emitter, OneLight& out) {
+                          const EmitterEdges& emitter, std::span<const std::uint32_t> siblings,
+                          OneLight& out) {
     const Patch& light = g.patches[l];
     const double emittance = visdb::channel_mean(g.emittance[l]);
+    // The emitter's area (the light and its siblings) over the light's
+    double emitter_area = g.area[l];
+    for (const std::uint32_t s : siblings) emitter_area += g.area[s];
+    const double area_ratio = emitter_area / g.area[l];
     // The regions the light's hemicube reached, or could not see: the others get no light, so
     // no shadow edge
     std::vector<char> reached(regions.planar.size(), 0);
@@ -258,7 +268,8 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                     double f = f_receiver;
                     for (const glm::dvec3& x : {seg.a, 0.5 * (seg.a + seg.b), seg.b})
                         f = std::max(f, visible_form_factor(x, rn, light, {}));
-                    here.push_back({j, seg, emittance * f});
+                    here.push_back({j, l, seg, emittance * f, area_ratio * emittance * f,
+                                    area_ratio * visdb::channel_mean(out.triangle[j])});
                 }
             }
             std::lock_guard lock(accumulate);
@@ -269,7 +280,7 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
 // Shoots from light l and computes what the bake asks of it.
 OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
                    const Hemicube& hemicube, std::uint32_t l, const EmitterEdges& emitter,
-                   const BakeOptions& options) {
+                   std::span<const std::uint32_t> siblings, const BakeOptions& options) {
     const bool exact = options.shading == Shading::Exact;
     OneLight out;
     const auto t0 = Clock::now();
@@ -300,7 +311,8 @@ OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh
 
     const auto t2 = Clock::now();
     if (options.dm)
-        project_shadow_edges(g, regions, bvh, l, shot, out.near, options.lights, emitter, out);
+        project_shadow_edges(g, regions, bvh, l, shot, out.near, options.lights, emitter, siblings,
+                             out);
     out.shadow.seconds_cpu = seconds_since(t2);
     return out;
 }
@@ -438,7 +450,7 @@ void project_point_shadow_edges(const BakeGeometry& g, const Regions& regions, c
                     double f = f_receiver;
                     for (const glm::dvec3& x : {seg.a, 0.5 * (seg.a + seg.b), seg.b})
                         f = std::max(f, unoccluded_point_irradiance(lum, x, rn));
-                    here.push_back({j, seg, f});
+                    here.push_back({j, kNoLight, seg, f, f, visdb::channel_mean(out.triangle[j])});
                 }
             }
             std::lock_guard lock(accumulate);
@@ -523,21 +535,98 @@ std::vector<EmitterEdges> emitter_edges(const BakeGeometry& g, const Regions& re
     return out;
 }
 
-// The shadow segments that earn a mesh edge go to their receivers: those of a light that
-// gives the receiver more than the refinement's floor (1/1000 of the brightest patch's
-// irradiance). The others mark a change the refinement would not mesh either: a weak or
-// distant light. Returns how many were dropped.
-std::uint64_t keep_strong(std::vector<LitSegment>& lit, LightShots& shots) {
+// Per light (index into g.lights): the other light triangles of its emitter, those of the same
+// planar region (one surface, one plane) and the same emittance: a panel's other half.
+std::vector<std::vector<std::uint32_t>> emitter_siblings(const BakeGeometry& g,
+                                                         const Regions& regions) {
+    std::map<std::uint32_t, std::vector<std::uint32_t>> by_region;
+    for (const std::uint32_t l : g.lights) by_region[regions.of_triangle[l]].push_back(l);
+    std::vector<std::vector<std::uint32_t>> out(g.lights.size());
+    for (std::size_t li = 0; li < g.lights.size(); ++li) {
+        const std::uint32_t l = g.lights[li];
+        for (const std::uint32_t s : by_region[regions.of_triangle[l]])
+            if (s != l && g.emittance[s] == g.emittance[l]) out[li].push_back(s);
+    }
+    return out;
+}
+
+// True when segment s of light triangle s.l on receiver s.j earns a mesh edge by its
+// contrast (docs/algorithms.md#which-shadow-edges-earn-a-mesh-edge): its emitter's light
+// changes across it, within `delta`, by at least `tolerance` of the irradiance there (the
+// emitter's largest value beside it and `others`, the other sources' patch irradiance on j).
+// The emitter's unoccluded light (s.emitter_unoccluded, its triangles taken alike) bounds the
+// change: below the tolerance of the others it is dropped unmeasured, and the measure stops
+// once the change passes the tolerance of that bound and the others. Occluders: those in the hull
+// of the light and the segment's strip of half width delta whose plane separates the light from the
+// receiver.
+bool earns_edge(const BakeGeometry& g, const Bvh& bvh, const LitSegment& s,
+                std::span<const std::uint32_t> siblings, double others, double tolerance,
+                double delta, std::vector<const Patch*>& lights,
+                std::vector<const Patch*>& occluders) {
+    const Patch& light = g.patches[s.l];
+    const Patch& r = g.patches[s.j];
+    const double emittance = visdb::channel_mean(g.emittance[s.l]);
+    const glm::dvec3 rn = unit_normal(r);
+    const glm::dvec3 d = s.segment.b - s.segment.a;
+    const glm::dvec3 across = glm::cross(rn, d);
+    if (!(emittance > 0.0) || !(glm::length(across) > 0.0)) return true;
+    const glm::dvec3 m = delta * glm::normalize(across);
+    const double bound = s.emitter_unoccluded;
+    if (bound < tolerance * others) return false;
+    lights.assign(1, &light);
+    for (const std::uint32_t k : siblings) lights.push_back(&g.patches[k]);
+    const glm::dvec3 shaft[7] = {light.p[0],      light.p[1],      light.p[2],     s.segment.a + m,
+                                 s.segment.a - m, s.segment.b + m, s.segment.b - m};
+    occluders.clear();
+    bvh.query(Hull(shaft), [&](std::uint32_t id) {
+        if (id != s.l && id != s.j && can_occlude(g.patches[id], light, r))
+            occluders.push_back(&g.patches[id]);
+    });
+    const ShadowContrast c = shadow_contrast(lights, r, occluders, s.segment, delta,
+                                             tolerance * (bound + others) / emittance);
+    return emittance * c.change >= tolerance * (emittance * c.level + others);
+}
+
+// The shadow segments that earn a mesh edge go to their receivers: those of a light that gives
+// the receiver more than the refinement's floor (1/1000 of the brightest patch's irradiance),
+// and, of a light triangle, across which its emitter's light changes by `tolerance` of the
+// irradiance there (earns_edge). The others mark a change the refinement would not mesh
+// either: a weak or distant light, or a weak, distant or tiny occluder (a shallow penumbra).
+// A luminaire's shadow is hard: its edges change its light by its whole value. Returns how
+// many were dropped.
+std::uint64_t keep_strong(const BakeGeometry& g, const Bvh& bvh,
+                          const std::vector<std::vector<std::uint32_t>>& siblings,
+                          std::vector<LitSegment>& lit, LightShots& shots, double tolerance,
+                          double delta, bool contrast) {
     double h_max = 0.0;
     for (const visdb::Rgb& h : shots.triangle_irradiance)
         h_max = std::max(h_max, visdb::channel_mean(h));
+    std::vector<std::uint32_t> light_index(g.patches.size(), 0);
+    for (std::size_t li = 0; li < g.lights.size(); ++li)
+        light_index[g.lights[li]] = static_cast<std::uint32_t>(li);
+    std::vector<char> keep(lit.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lit.size(), 16), [&](const auto& range) {
+        std::vector<const Patch*> lights, occluders;
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+            const LitSegment& s = lit[i];
+            if (s.unoccluded < 1e-3 * h_max) continue;
+            if (s.l == kNoLight || !contrast) {
+                keep[i] = 1;
+                continue;
+            }
+            const double others = std::max(
+                0.0, visdb::channel_mean(shots.triangle_irradiance[s.j]) - s.emitter_patch);
+            keep[i] = earns_edge(g, bvh, s, siblings[light_index[s.l]], others, tolerance, delta,
+                                 lights, occluders);
+        }
+    });
     std::uint64_t dropped = 0;
-    for (const LitSegment& s : lit) {
-        if (s.jump < 1e-3 * h_max) {
+    for (std::size_t i = 0; i < lit.size(); ++i) {
+        if (!keep[i]) {
             ++dropped;
             continue;
         }
-        shots.segments[s.j].push_back(s.segment);
+        shots.segments[lit[i].j].push_back(lit[i].segment);
     }
     lit = {};
     return dropped;
@@ -660,6 +749,9 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     std::size_t done = 0;
     const std::vector<EmitterEdges> emitter =
         options.dm ? emitter_edges(g, regions) : std::vector<EmitterEdges>(g.lights.size());
+    const std::vector<std::vector<std::uint32_t>> siblings =
+        options.dm ? emitter_siblings(g, regions)
+                   : std::vector<std::vector<std::uint32_t>>(g.lights.size());
 
     // The sources this rank shoots (all of them without MPI), shared by their cost
     Cluster alone;
@@ -690,7 +782,8 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     if (progress) progress("shoot", 0, sources);
     tbb::parallel_for(std::size_t{0}, mine.lights.size(), [&](std::size_t i) {
         const std::uint32_t li = mine.lights[i], l = g.lights[li];
-        const OneLight one = shoot_one(g, regions, bvh, hemicube, l, emitter[li], options);
+        const OneLight one =
+            shoot_one(g, regions, bvh, hemicube, l, emitter[li], siblings[li], options);
         std::lock_guard lock(accumulate);
         add(one, sums.lights_of, l, &g.patches[l]);
     });
@@ -706,7 +799,11 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     const visdb::ExactShadeStats& exact_stats = totals.exact;
     visdb::ShadowEdgeStats shadow_stats = totals.shadow;
     std::vector<LitSegment>& lit = sums.lit;
-    if (options.dm) shadow_stats.segments_weak = keep_strong(lit, shots);
+    if (options.dm)
+        shadow_stats.segments_weak = keep_strong(
+            g, bvh, siblings, lit, shots, options.shadow_contrast * options.refine_tolerance,
+            refine_min_edge(options, g.size),
+            options.shadow_contrast > 0.0 && options.lights != LightModel::Centroid);
 
     if (stats) {
         // Energy: emitted power, and power arriving on the receivers (from the hemicube)

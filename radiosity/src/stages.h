@@ -11,6 +11,7 @@
 //   shade_patches       shade.cpp           the paper's patch shading on a new mesh
 //   shade_vertices      shade.cpp           B = E + ρH at every output vertex
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <optional>
@@ -44,6 +45,12 @@ inline constexpr double kLengthTolerance = 1e-7;
 /// of its rooms (a shadow's detail on a desk does not grow with the building around it).
 inline constexpr double kMinEdgeFraction = 1.0 / 128.0;
 inline constexpr double kMinEdgeMetres = 0.05;
+/// The shortest edge the refinement splits in a model of `size` metres: the option's value, or
+/// the default above.
+inline double refine_min_edge(const BakeOptions& options, double size) {
+    return options.refine_min_edge > 0.0 ? options.refine_min_edge
+                                         : std::min(kMinEdgeMetres, kMinEdgeFraction * size);
+}
 
 /// A mesh to shoot onto and shade, with what shading needs beside it: per triangle its
 /// patch, area and material; per vertex its triangles (compressed rows).

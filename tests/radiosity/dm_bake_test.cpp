@@ -120,6 +120,18 @@ visdb::Scene scaled(visdb::Scene scene, double scale) {
     return scene;
 }
 
+// The default shortest edge of the refinement in `scene`: 1/128 of its size (the diagonal of
+// its bounding box), at most 0.05 m.
+double default_min_edge(const visdb::Scene& scene) {
+    glm::dvec3 lo(1e300), hi(-1e300);
+    for (const visdb::Surface& s : scene.surfaces)
+        for (const glm::dvec3& p : s.mesh.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    return std::min(0.05, glm::length(hi - lo) / 128.0);
+}
+
 // Issue 19: the refinement's lengths were metres (0.05 m shortest edge, 1e-6 m merging), so a
 // model in millimetres was refined 5 times less than the same model in metres. They are
 // fractions of the model's size now. Scaled by 2^-10 and 2^10 (exact in binary: every
@@ -134,13 +146,15 @@ TEST(DmBake, ModelsInMillimetresOrKilometresMeshAsInMetres) {
     o.bounces = 0;
     const visdb::Bake reference = bake(metres, o);
     const double e_metres = field_error_of(metres, o);
+    const double min_edge = default_min_edge(metres);
     for (const double scale : {1.0 / 1024.0, 1024.0}) {
         SCOPED_TRACE("scale " + std::to_string(scale));
         const visdb::Scene model = scaled(metres, scale);
         // The default shortest edge is capped at 0.05 m (a building is refined as finely as a
-        // room), so a room in kilometres gets it scaled with it explicitly
+        // room), so a room in kilometres gets the room's own scaled with it explicitly (the
+        // shadow edges' contrast is measured at that length too)
         BakeOptions os = o;
-        if (scale > 1.0) os.refine_min_edge = 0.05 * scale;
+        if (scale > 1.0) os.refine_min_edge = min_edge * scale;
         const visdb::Bake b = bake(model, os);
         ASSERT_EQ(b.mesh.triangles.size(), reference.mesh.triangles.size());
         ASSERT_EQ(b.mesh.positions.size(), reference.mesh.positions.size());
@@ -159,7 +173,7 @@ TEST(DmBake, ModelsInMillimetresOrKilometresMeshAsInMetres) {
         SCOPED_TRACE("scale " + std::to_string(scale));
         const visdb::Scene model = scaled(metres, scale);
         BakeOptions os = o;
-        if (scale > 1.0) os.refine_min_edge = 0.05 * scale;
+        if (scale > 1.0) os.refine_min_edge = min_edge * scale;
         std::size_t triangles = 0;
         const double e = field_error_of(model, os, &triangles);
         const auto expected = static_cast<double>(reference.mesh.triangles.size());
@@ -198,6 +212,38 @@ TEST(DmBake, ABuildingIsRefinedAsFinelyAsARoom) {
     EXPECT_EQ(b.mesh.triangles.size(), b_capped.mesh.triangles.size());
     EXPECT_EQ(b.mesh.positions, b_capped.mesh.positions);
     EXPECT_GT(b.mesh.triangles.size(), b_fraction.mesh.triangles.size());
+}
+
+// Issue 14: with BakeOptions::shadow_contrast 0.02, a shadow segment earns a mesh edge only
+// where its light departs from linear across it, within the refinement's shortest edge, by more
+// than a fiftieth of the refinement's tolerance of the irradiance there (here 0.1 %). Under the 1 m
+// panel at 1.5 m: a 0.4 m square half way (a shadow as deep as the light, `room`'s occluder) casts
+// its edges; a 1 cm square at the same place (tiny: it hides at most 2e-4 of the light) casts none,
+// though its edges are projected.
+TEST(DmBake, OnlyAStrongOccluderCastsMeshEdges) {
+    struct Case {
+        const char* what;
+        double half, z;
+        bool cast;
+    };
+    for (const Case& c : {Case{"strong", 0.2, 0.75, true}, Case{"tiny", 0.005, 0.75, false}}) {
+        visdb::Scene scene = abrad::testing::floor_and_light(8, false);
+        scene.surfaces.push_back(
+            abrad::testing::grid("occluder", 2, -c.half, c.half, -c.half, c.half, c.z, 1, true));
+        BakeOptions o;
+        o.bounces = 0;
+        o.shadow_contrast = 0.02;
+        const visdb::Bake b = bake(scene, o);
+        ASSERT_TRUE(b.statistics.dm.has_value());
+        const visdb::DiscontinuityStats& dm = *b.statistics.dm;
+        EXPECT_GT(dm.shadow.edges_projected, 0u) << c.what;
+        if (c.cast) {
+            EXPECT_GT(dm.segments, 0u) << c.what;
+        } else {
+            EXPECT_EQ(dm.segments, 0u) << c.what;
+            EXPECT_GT(dm.shadow.segments_weak, 0u) << c.what;
+        }
+    }
 }
 
 TEST(DmBake, RejectsBadRefinementOptions) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -465,6 +466,43 @@ TEST(ShadowEdges, IgnoresReceiverLightAndDuplicates) {
     const Patch light2 = tri(light.p[2], light.p[0], light.p[1]);
     const auto again = cast(light, LightModel::Vertices, receiver, {occ, receiver2, light2, occ});
     EXPECT_EQ(again.size(), 9u) << dump(again);
+}
+
+// How far the light departs from linear across a shadow segment (shadow_contrast), against
+// the light there: a 0.4 m square half way under a 0.2 m light triangle at 1.5 m has a hard
+// umbra edge (within 5 cm of it the light departs from linear by a good part of its value), a
+// 2 mm square hides at most 0.05 % of the light: the departure is the light's own smooth
+// fall-off over ±5 cm, under 0.3 % of it (a 1 cm square hides 1.3 % of this small light and
+// departs by 0.9 %). The bake's criterion (shadow_contrast 0.02 of the refinement's
+// tolerance, 0.1 % of the light) is tested on a bake: DmBake.OnlyAStrongOccluderCastsMeshEdges.
+TEST(ShadowEdges, ContrastOfAStrongAndATinyOccluder) {
+    const Patch light = light_down({0, 0, 1.5});
+    const Patch floor = floor_big();
+    const Patch* lights[1] = {&light};
+    constexpr double kStrong = 0.1, kTiny = 3e-3;
+    for (const double half : {0.2, 0.001}) {
+        const std::vector<Patch> occ = {
+            tri({-half, -half, 0.75}, {half, -half, 0.75}, {half, half, 0.75}),
+            tri({-half, -half, 0.75}, {half, half, 0.75}, {-half, half, 0.75})};
+        std::vector<const Patch*> ptr;
+        ptr.reserve(occ.size());
+        for (const Patch& o : occ) ptr.push_back(&o);
+        const std::vector<ShadowSegment> segments = cast(light, LightModel::Vertices, floor, occ);
+        ASSERT_FALSE(segments.empty()) << half;
+        double lowest = 1.0, highest = 0.0;
+        for (const ShadowSegment& s : segments) {
+            const ShadowContrast c = shadow_contrast(lights, floor, ptr, s, 0.05);
+            ASSERT_GT(c.level, 0.0);
+            lowest = std::min(lowest, c.change / c.level);
+            highest = std::max(highest, c.change / c.level);
+        }
+        if (half > 0.1) {
+            EXPECT_GT(highest, kStrong) << dump(segments);
+            EXPECT_GT(lowest, kTiny) << dump(segments);
+        } else {
+            EXPECT_LT(highest, kTiny) << dump(segments);
+        }
+    }
 }
 
 }  // namespace

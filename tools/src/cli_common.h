@@ -95,7 +95,7 @@ struct BakeArgs {
     std::string lights = "vertices";
     double dm_angle = 0.0;
     int refine_rounds = 4;
-    double refine_tolerance = 0.07;
+    double refine_tolerance = 0.05;
     double refine_min_edge = 0.0;
     double reach = 0.0;
 };

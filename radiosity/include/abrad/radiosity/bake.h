@@ -85,12 +85,20 @@ struct BakeOptions {
     LightModel lights = LightModel::Vertices;  ///< how lights cast shadow edges
     double dm_min_angle = 0.0;  ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
     int refine_rounds = 4;      ///< illumination-driven refinement rounds (0 = shadow edges only)
-    double refine_tolerance = 0.07;  ///< split an edge when its midpoint's exact irradiance departs
-                                     ///< from the linear interpolation by more than this, relative
+    /// Split an edge when its midpoint's exact irradiance departs from the linear
+    /// interpolation by more than this, relative, and by more than 1.5 times this of the
+    /// receivers' mean irradiance (docs/algorithms.md#illumination-driven-refinement).
+    double refine_tolerance = 0.05;
     /// Edges shorter than this (metres) are not split; 0: 1/128 of the model's size (its
     /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room) and at most 0.05 m, so that a
     /// small model meshes as it would in metres and a building as finely as a room.
     double refine_min_edge = 0.0;
+    /// With DM and the vertices or area light model: a light triangle's shadow segment is cast
+    /// only where its emitter's light departs from linear across it (within the shortest edge)
+    /// by at least this times refine_tolerance of the irradiance there; 0 (the default): every
+    /// segment. 0.02 drops tiny, weak and distant occluders' edges (docs/algorithms.md
+    /// #which-shadow-edges-earn-a-mesh-edge) but costs the FZK-Haus a third more CPU.
+    double shadow_contrast = 0.0;
     /// When set, the MPI ranks the bake's work is shared with (cluster.h): every rank calls
     /// `bake` with the same scene and options; rank 0 returns the bake, the others an empty
     /// one once their share is done. Null: this process alone.

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <glm/vec3.hpp>
+#include <limits>
 #include <optional>
 #include <span>
 #include <string>
@@ -74,6 +75,27 @@ std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, co
 /// on the receiver's plane meets it (a box on a floor: the light stops there whatever the
 /// point's place). Shared edges and `min_length` as shadow_edges; the caller checks that the
 /// receiver faces the point.
+/// How much an emitter's visible light departs from linear across a shadow segment on
+/// `receiver`, at the length `delta` (metres, the finest the mesh will resolve). F(x) is the
+/// form factor from the receiver's plane at x to the parts of the emitter's triangles `lights`
+/// seen past `occluders`, summed (the triangles of a panel cast the same lines from their
+/// shared corners). On the lines across the segment (m: its unit normal in the receiver's
+/// plane) through its middle and its ends x: the largest departure of F(x + tδm) at t = 0,
+/// ±1/2 from the straight line between F(x − δm) and F(x + δm) (the refinement's test on an
+/// edge of 2δ across the segment; a step of J across it shows as J/4, a shadow narrower than δ
+/// as its depth), and the largest F there. A hard edge departs by a good part of the
+/// emitter's value; a weak, distant or tiny occluder's edge (a wide, shallow penumbra) by a
+/// small part of it, and a smooth fall-off not at all. Stops at the first point where the
+/// departure reaches `enough` (the caller's decision is then made).
+struct ShadowContrast {
+    double change = 0.0;  ///< largest departure of F from linear across the segment
+    double level = 0.0;   ///< largest F there
+};
+ShadowContrast shadow_contrast(std::span<const Patch* const> lights, const Patch& receiver,
+                               std::span<const Patch* const> occluders,
+                               const ShadowSegment& segment, double delta,
+                               double enough = std::numeric_limits<double>::infinity());
+
 std::vector<ShadowSegment> point_shadow_edges(const glm::dvec3& source, const Patch& receiver,
                                               std::span<const Patch* const> occluders,
                                               double min_length = 1e-9,
