@@ -31,7 +31,7 @@ namespace {
 // The refinement leaves an edge whose midpoint departs from the linear interpolation by less
 // than this times the tolerance of the receivers' mean irradiance
 // (docs/algorithms.md#illumination-driven-refinement).
-constexpr double kFloorOfMean = 1.5;
+constexpr double kFloorOfMean = 0.5;
 
 // Exact position (and region) as a hash key.
 struct PointKey {

@@ -135,12 +135,6 @@ visdb::Scene area_source_scene() {
     return s;
 }
 
-// The default export under the source: a coarse floor (1 m cells) refined where the
-// midpoint of an edge departs from the linear interpolation by more than 10 % (the default
-// --refine-tolerance 0.1) keeps errors of that order between the refined vertices.
-constexpr const char* kRefinementUnderTheSource =
-    "5.3: export between refined vertices under the source";
-
 std::vector<Point> area_source_points() {
     const std::vector<dvec3> emitter = rect_z(-1, 1, -0.5, 0.5, 3);
     std::vector<Point> points;
@@ -151,7 +145,6 @@ std::vector<Point> area_source_points() {
         const dvec3 x0(x, y, 0.0), n(0, 0, 1);
         points.push_back({label("floor", x, y), {x0, n}, kM * lambert_ff(x0, n, emitter)});
     }
-    points[1].defect = kRefinementUnderTheSource;
     // Wall points (normal -x), the emitter seen at a grazing angle from the wall's top;
     // the wall's field is smooth: within 1 %
     for (const auto& [y, z] :
@@ -213,9 +206,6 @@ TEST(Cie171, Case52PointSource) {
     check(measure("5.2 point source", scene, bake(scene, BakeOptions{}), floor_points(reference)));
 }
 
-constexpr const char* kRefinementUnderTheCosineWeb =
-    "cosine web: export between refined vertices under the source";
-
 // A cosine web I0 cos γ (downward only) at 2.5 m: E = I0 cos⁴θ / h².
 visdb::Scene cosine_web_scene() {
     return point_source_scene(2.5,
@@ -229,8 +219,6 @@ std::vector<Point> cosine_web_points() {
     });
     for (Point& p : points) p.probe_tolerance = 2e-4;  // the web's 1° bilinear steps
     for (Point& p : points) p.export_tight = p.export_tight > 0.0 ? 2e-4 : 0.0;
-    points[1].defect = kRefinementUnderTheCosineWeb;  // (0.5, 0): −5.7 %
-    points[6].defect = kRefinementUnderTheCosineWeb;  // (1.5, −2.5): −5.2 %
     return points;
 }
 
@@ -239,24 +227,10 @@ TEST(Cie171, CosineWebCosToTheFourth) {
     check(measure("cosine web", scene, bake(scene, BakeOptions{}), cosine_web_points()));
 }
 
-TEST(Cie171, KnownDefectCosineWebExportBetweenRefinedVertices) {
-    const visdb::Scene scene = cosine_web_scene();
-    expect_known_defect(
-        measure("cosine web", scene, bake(scene, BakeOptions{}), cosine_web_points()),
-        kRefinementUnderTheCosineWeb);
-}
-
 TEST(Cie171, Case53AreaSource) {
     const visdb::Scene scene = area_source_scene();
     const std::vector<Point> points = area_source_points();
     check(measure("5.3 area source", scene, bake(scene, BakeOptions{}), points));
-}
-
-TEST(Cie171, KnownDefectCase53ExportBetweenRefinedVertices) {
-    const visdb::Scene scene = area_source_scene();
-    const std::vector<Point> points = area_source_points();
-    expect_known_defect(measure("5.3 area source", scene, bake(scene, BakeOptions{}), points),
-                        kRefinementUnderTheSource);
 }
 
 // ---- 5.4 and 5.8: the 4 × 4 × 4 m room ----

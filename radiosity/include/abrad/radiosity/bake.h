@@ -86,7 +86,7 @@ struct BakeOptions {
     double dm_min_angle = 0.0;  ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
     int refine_rounds = 4;      ///< illumination-driven refinement rounds (0 = shadow edges only)
     /// Split an edge when its midpoint's exact irradiance departs from the linear
-    /// interpolation by more than this, relative, and by more than 1.5 times this of the
+    /// interpolation by more than this, relative, and by more than half this of the
     /// receivers' mean irradiance (docs/algorithms.md#illumination-driven-refinement).
     double refine_tolerance = 0.05;
     /// Edges shorter than this (metres) are not split; 0: 1/128 of the model's size (its
