@@ -719,11 +719,13 @@ bool box_hidden(const ShooterFrame& frame, const Hemicube& hc, const ClosedPixel
 
 // Scan-converts the patches into fragments, nearest first; culls pieces (and, walking a BVH,
 // whole nodes) behind closed pixels when no occlusion lists are asked for (Algorithm 2 lists
-// hidden patches behind their occluders too).
+// hidden patches behind their occluders too) or when the walk is asked to cull them anyway
+// (ShootOptions::cull_listed).
 template <int S>
 void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, const Hemicube& hc,
                   const ShootOptions& options, FragmentBuffer<S>& buffer, ShootResult& result) {
-    const bool cull = !options.occlusion;
+    const bool walk = options.bvh && !options.only;
+    const bool cull = !options.occlusion || (walk && options.cull_listed);
     ClosedPixels<S> closed(hc.pixel_count());
     LocalIds local_targets;
     // With Targets: each new fragment's form factor goes to the target holding the point its
@@ -772,7 +774,7 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
             if (opaque) closed.add(buffer, first);
         });
     };
-    if (options.bvh && !options.only) {
+    if (walk) {
         // Large occluders first: the walls and slabs close pixels before the clutter behind
         // them is walked. They go nearest first too, so that a wall of the next room finds the
         // pixels this room's walls closed and is not rasterized at all
@@ -808,6 +810,7 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
             rasterize(nearest_and_patch.second);
     }
     result.visited = buffer.patch_of.size();
+    result.rasterized = buffer.patch_of;
     result.fragments = buffer.fragments.size();
 }
 

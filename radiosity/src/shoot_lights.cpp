@@ -101,7 +101,7 @@ struct LitSegment {
 
 // One light's shot and what it contributes, before it is added to the totals.
 struct OneLight {
-    std::vector<std::uint32_t> near;           // triangles the light can reach (cull.h)
+    std::vector<std::uint32_t> near;           // receivers: in reach (cull.h) or in reached regions
     std::vector<std::uint32_t> near_vertices;  // their vertices
     std::vector<visdb::Rgb> triangle;          // patch irradiance, all triangles
     std::vector<visdb::Rgb> vertex;            // exact irradiance (exact shading without DM)
@@ -277,23 +277,91 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
         });
 }
 
+// What every light's culled shot shares: each planar region's triangles, ascending (the
+// receivers of the regions a shot reached), and the walls and slabs its walk rasterizes first.
+struct ShotContext {
+    std::vector<std::uint32_t> region_start, region_triangles;
+    std::vector<std::uint32_t> occluders;
+};
+
+ShotContext shot_context(const BakeGeometry& g, const Regions& regions,
+                         const BakeOptions& options) {
+    ShotContext c;
+    c.region_start.assign(regions.planar.size() + 1, 0);
+    for (const std::uint32_t r : regions.of_triangle) ++c.region_start[r + 1];
+    for (std::size_t r = 0; r < regions.planar.size(); ++r)
+        c.region_start[r + 1] += c.region_start[r];
+    c.region_triangles.resize(regions.of_triangle.size());
+    std::vector<std::uint32_t> fill(c.region_start.begin(), c.region_start.end() - 1);
+    for (std::size_t t = 0; t < regions.of_triangle.size(); ++t)
+        c.region_triangles[fill[regions.of_triangle[t]]++] = static_cast<std::uint32_t>(t);
+    // The interreflection's rule: a cell of its element grid and larger
+    c.occluders = large_occluders(g.patches, options.element_size * options.element_size);
+    return c;
+}
+
+// The triangles of every region light l's culled shot reached (a triangle with some of its
+// light, or one the hemicube cannot see the front of though part of the light is in front of
+// it: unseen_from_centroid), ascending, the light excluded. A triangle of a reached region that
+// the walk culled (behind closed pixels as seen from the centroid) is a receiver too: part of
+// the light may still reach it past the occluders that hid it (penumbra).
+std::vector<std::uint32_t> reached_triangles(const BakeGeometry& g, const Regions& regions,
+                                             const ShotContext& c, std::uint32_t l,
+                                             const ShootResult& shot) {
+    const Patch& light = g.patches[l];
+    const glm::dvec3 normal = unit_normal(light);
+    std::vector<std::uint32_t> reached;
+    for (const std::uint32_t id : shot.rasterized) {
+        bool lit = shot.form_factor[id] > 0.0;
+        if (!lit) {
+            const Patch& r = g.patches[id];
+            bool in_front = false;
+            for (const glm::dvec3& x : r.p) in_front |= glm::dot(x - light.p[0], normal) > 0.0;
+            lit = in_front && unseen_from_centroid(light, r);
+        }
+        if (lit) reached.push_back(regions.of_triangle[id]);
+    }
+    std::sort(reached.begin(), reached.end());
+    reached.erase(std::unique(reached.begin(), reached.end()), reached.end());
+    std::vector<std::uint32_t> out;
+    for (const std::uint32_t r : reached)
+        for (std::uint32_t k = c.region_start[r]; k < c.region_start[r + 1]; ++k)
+            if (c.region_triangles[k] != l) out.push_back(c.region_triangles[k]);
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
 // Shoots from light l and computes what the bake asks of it.
 OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh,
-                   const Hemicube& hemicube, std::uint32_t l, const EmitterEdges& emitter,
-                   std::span<const std::uint32_t> siblings, const BakeOptions& options) {
+                   const ShotContext& context, const Hemicube& hemicube, std::uint32_t l,
+                   const EmitterEdges& emitter, std::span<const std::uint32_t> siblings,
+                   const BakeOptions& options) {
     const bool exact = options.shading == Shading::Exact;
     OneLight out;
     const auto t0 = Clock::now();
-    // Hemicube at the light triangle's centroid, around its front normal. Culling: only
-    // triangles in front of the light and within its reach (cull.h)
+    // Hemicube at the light triangle's centroid, around its front normal. With DM or patch
+    // shading (and unlimited reach) the shot walks the BVH front to back and culls what lies
+    // behind closed pixels, so that it costs what the light sees, not the building; its
+    // receivers are then the triangles of the regions it reached (reached_triangles). Exact
+    // shading without DM, or a limited reach, draws every triangle in front of the light
+    // within its reach (cull.h): the vertices' occlusion lists then spare most of those behind
+    // walls the shaft query (shade_vertices_exactly).
     ShootOptions so{
         .method = options.method, .subpixels = options.subpixels, .occlusion = exact || options.dm};
     so.exclude = l;
-    out.near = light_candidates(bvh, g.patches, l, options.reach);
-    out.near_vertices = vertices_of(out.near, g.mesh.triangles);
-    so.only = &out.near;
+    const bool walk = (options.dm || !exact) && !(options.reach > 0.0);
+    if (walk) {
+        so.bvh = &bvh;
+        so.cull_listed = true;
+        so.occluders_first = context.occluders;
+    } else {
+        out.near = light_candidates(bvh, g.patches, l, options.reach);
+        out.near_vertices = vertices_of(out.near, g.mesh.triangles);
+        so.only = &out.near;
+    }
     const ShooterFrame from = frame_of(g.patches[l]);
     const ShootResult shot = shoot(from, g.patches, hemicube, so);
+    if (walk) out.near = reached_triangles(g, regions, context, l, shot);
     out.shoot.seconds_cpu = seconds_since(t0);
 
     out.triangle.assign(g.patches.size(), visdb::Rgb(0.0));
@@ -757,6 +825,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     Cluster alone;
     Cluster& cluster = options.cluster ? *options.cluster : alone;
     const SourceShare mine = share_sources(g, bvh, options, cluster);
+    const ShotContext context = shot_context(g, regions, options);
     const std::size_t sources = mine.lights.size() + mine.luminaires.size();
     // Adds one source's shot to the totals (under the lock)
     // (`light`: an area light's triangle, whose hemicube from the centroid may miss a receiver
@@ -783,7 +852,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
     tbb::parallel_for(std::size_t{0}, mine.lights.size(), [&](std::size_t i) {
         const std::uint32_t li = mine.lights[i], l = g.lights[li];
         const OneLight one =
-            shoot_one(g, regions, bvh, hemicube, l, emitter[li], siblings[li], options);
+            shoot_one(g, regions, bvh, context, hemicube, l, emitter[li], siblings[li], options);
         std::lock_guard lock(accumulate);
         add(one, sums.lights_of, l, &g.patches[l]);
     });

@@ -651,6 +651,56 @@ TEST(Cull, OccludersFirstChangeNoFormFactorAndVisitLess) {
     EXPECT_LT(visited_first, visited_bvh);
 }
 
+// A light's shot with occlusion lists through the culling walk (ShootOptions::cull_listed):
+// the same form factors bit for bit as the plain walk over every patch, fewer patches drawn,
+// and lists that are part of the plain walk's (what the walk culled has no pairs). The room of
+// the test above, the shooter a ceiling light looking down, the walls drawn first.
+TEST(Cull, CulledListsKeepFormFactorsAndArePartOfTheFullLists) {
+    std::vector<Patch> p;
+    using V = glm::dvec3;
+    testing::add_quad(p, {0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0});  // floor
+    testing::add_quad(p, {0, 0, 0}, {0, 0, 3}, {4, 0, 3}, {4, 0, 0});  // walls
+    testing::add_quad(p, {4, 0, 0}, {4, 0, 3}, {4, 4, 3}, {4, 4, 0});
+    testing::add_quad(p, {4, 4, 0}, {4, 4, 3}, {0, 4, 3}, {0, 4, 0});
+    testing::add_quad(p, {0, 4, 0}, {0, 4, 3}, {0, 0, 3}, {0, 0, 0});
+    testing::add_quad(p, {1, 1, 1}, {3, 1, 1}, {3, 1, 2}, {1, 1, 2}, 0.3);  // translucent pane
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) {
+            const V o{0.3 + 0.6 * i, 0.3 + 0.6 * j, 0.5 + 0.3 * ((i + j) % 3)};
+            testing::add_quad(p, o, o + V{0.1, 0, 0}, o + V{0.1, 0.1, 0}, o + V{0, 0.1, 0});
+            const V q{6.0 + 0.6 * i, 0.3 + 0.6 * j, 1.0};  // outside, behind a wall
+            testing::add_quad(p, q, q + V{0, 0.2, 0}, q + V{0, 0.2, 0.2}, q + V{0, 0, 0.2});
+        }
+    const Bvh bvh(p);
+    const ShooterFrame frame = ShooterFrame::at({1.7, 2.2, 2.9}, {0, 0, -1});
+    ShootOptions o{.occlusion = true};
+    const ShootResult plain = shoot(frame, p, Hemicube(32), o);
+    o.bvh = &bvh;
+    o.cull_listed = true;
+    const std::vector<std::uint32_t> walls = large_occluders(p, 1.0);
+    o.occluders_first = walls;
+    const ShootResult culled = shoot(frame, p, Hemicube(32), o);
+    ASSERT_EQ(plain.form_factor.size(), culled.form_factor.size());
+    for (std::size_t k = 0; k < p.size(); ++k)
+        EXPECT_EQ(plain.form_factor[k], culled.form_factor[k]);
+    EXPECT_LT(culled.visited, plain.visited);
+    EXPECT_EQ(culled.rasterized.size(), culled.visited);
+    EXPECT_FALSE(culled.occlusion.empty());
+    for (const OcclusionPair& pair : culled.occlusion)
+        EXPECT_TRUE(std::binary_search(plain.occlusion.begin(), plain.occlusion.end(), pair,
+                                       [](const OcclusionPair& a, const OcclusionPair& b) {
+                                           return a.receiver != b.receiver
+                                                      ? a.receiver < b.receiver
+                                                      : a.occluder < b.occluder;
+                                       }));
+    EXPECT_LT(culled.occlusion.size(), plain.occlusion.size());
+    // What lies outside the room, behind the walls drawn first, leaves no pair: the plain walk
+    // lists the walls in front of it
+    const auto outside = [&](const OcclusionPair& pair) { return p[pair.receiver].p[0].x > 5.0; };
+    EXPECT_TRUE(std::any_of(plain.occlusion.begin(), plain.occlusion.end(), outside));
+    EXPECT_TRUE(std::none_of(culled.occlusion.begin(), culled.occlusion.end(), outside));
+}
+
 TEST(Cull, ReachDropsOnlyWhatLiesBeyondItWithinTheStatedBound) {
     // Two rooms' worth of floor and lights 30 m apart in the open: with a reach of 10 m each
     // floor gets only its own light; the difference from the full bake is the far light's

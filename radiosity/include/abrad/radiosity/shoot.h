@@ -51,6 +51,12 @@ struct ShootOptions {
     /// sees, not the size of the building. Form factors are those of the plain walk. Not
     /// owned; must outlive the call.
     const Bvh* bvh = nullptr;
+    /// With `bvh` and `occlusion`: also cull what lies behind closed pixels (whole nodes and
+    /// pieces), as without lists, so that a light's shot costs what it sees. The lists then
+    /// hold only the pairs found in pixels before they closed (a receiver hidden wholly has
+    /// none): for callers that complete them conservatively (the shadow edges' shaft
+    /// queries). Form factors are unchanged.
+    bool cull_listed = false;
     /// Form factors as `ShootResult::hits` (only the patches that got some) instead of the
     /// dense `form_factor`, so that a shot's cost does not grow with the patch count.
     bool sparse = false;
@@ -99,7 +105,9 @@ struct ShootResult {
     std::size_t hidden_pieces = 0;        ///< patch pieces culled as hidden behind closed pixels
     std::size_t hidden_nodes = 0;         ///< BVH nodes skipped whole (behind or hidden)
     std::size_t visited = 0;              ///< patches clipped and projected
-    double seconds_occlusion = 0.0;       ///< time spent merging occlusion lists (Algorithm 2)
+    /// The patches clipped and projected (not culled whole), in the order visited.
+    std::vector<std::uint32_t> rasterized;
+    double seconds_occlusion = 0.0;  ///< time spent merging occlusion lists (Algorithm 2)
 
     /// Occluders of `receiver` (a sub-range of `occlusion`).
     std::span<const OcclusionPair> occluders_of(std::uint32_t receiver) const;
