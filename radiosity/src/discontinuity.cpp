@@ -13,6 +13,8 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <numeric>
 #include <unordered_map>
 #include <unordered_set>
@@ -22,6 +24,7 @@
 #include "abrad/check.h"
 #include "abrad/radiosity/cluster.h"
 #include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/exact.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
@@ -167,6 +170,159 @@ visdb::Rgb exact_at(const BakeGeometry& g, const Bvh& bvh, std::span<const std::
     return h;
 }
 
+// The occluder candidates of each region's light triangles, found once per tile of the
+// region: the region's bounding rectangle (in its plane) is cut into square tiles of about
+// `tile` metres, and a tile's candidates for a light are those of the shaft of the light and
+// the tile, which holds the shaft of the light and any point of the tile. A point's candidates
+// are those of its tile's whose box meets its own shaft (the test a query of that shaft makes of
+// each box, in the same order: the same occluders), so that the region's many evaluations, round
+// after round, filter a short list instead of each walking the BVH. A tile's lists are built on
+// first use (thread safe); a region of few vertices, or a tile whose lists grow past kMaxListed
+// per light, queries point by point.
+class RegionShafts {
+  public:
+    static constexpr std::size_t kMinVertices = 8;
+    static constexpr std::size_t kMaxListed = 2048;
+    static constexpr int kMaxTiles = 64;  // per side
+
+    RegionShafts(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
+                 const RegionSources& sources, double reach, double tile)
+        : m_g(g),
+          m_bvh(bvh),
+          m_regions(regions),
+          m_sources(sources),
+          m_reach(reach),
+          m_tile(tile),
+          m_once(std::make_unique<std::once_flag[]>(regions.planar.size())),
+          m_frames(regions.planar.size()) {}
+
+    // The direct light at x (unit normal n) of region r, as exact_at.
+    visdb::Rgb irradiance(std::uint32_t r, const glm::dvec3& x, const glm::dvec3& n,
+                          std::vector<const Patch*>& occ) const {
+        std::call_once(m_once[r], [&] { frame(r); });
+        const Frame& f = m_frames[r];
+        const Tile* tile = nullptr;
+        if (f.tiles) {
+            const auto cell = [](double t, double t0, double side, int count) {
+                return std::clamp(static_cast<int>(std::floor((t - t0) / side)), 0, count - 1);
+            };
+            const int i = cell(glm::dot(x, f.u), f.u0, f.side, f.nu);
+            const int j = cell(glm::dot(x, f.v), f.v0, f.side, f.nv);
+            tile = &f.tiles[static_cast<std::size_t>(j) * f.nu + i];
+            std::call_once(tile->once, [&] { build(r, i, j, *tile); });
+            if (!tile->built) tile = nullptr;
+        }
+        if (!tile)
+            return exact_at(m_g, m_bvh, m_sources.lights[r], m_sources.luminaires[r], x, n, occ,
+                            m_reach);
+        const std::span<const std::uint32_t> lights = m_sources.lights[r];
+        visdb::Rgb h(0.0);
+        for (std::size_t k = 0; k < lights.size(); ++k) {
+            const std::uint32_t l = lights[k];
+            const Patch& lp = m_g.patches[l];
+            // As exact_irradiance: nothing from behind the light's plane or beyond its reach
+            if (glm::dot(x - lp.p[0], cross_normal(lp)) <= 0.0) continue;
+            if (m_reach > 0.0) {
+                const glm::dvec3 d = glm::abs(x - centroid(lp));
+                if (d.x > m_reach || d.y > m_reach || d.z > m_reach) continue;
+            }
+            const glm::dvec3 corners[4] = {lp.p[0], lp.p[1], lp.p[2], x};
+            const Hull shaft(corners);
+            occ.clear();
+            for (std::uint32_t c = tile->start[k]; c < tile->start[k + 1]; ++c) {
+                const std::uint32_t id = tile->ids[c];
+                const Box& b = m_bvh.box(id);
+                if (b.overlaps(shaft.box()) && shaft.may_overlap(b))
+                    occ.push_back(&m_g.patches[id]);
+            }
+            h += m_g.emittance[l] * visible_form_factor(x, n, lp, occ);
+        }
+        for (const std::uint32_t k : m_sources.luminaires[r])
+            h += luminaires_irradiance({&m_g.luminaires[k], 1}, m_g.patches, m_bvh, x, n, m_reach);
+        return h;
+    }
+
+  private:
+    struct Tile {
+        mutable std::once_flag once;
+        mutable bool built = false;
+        mutable std::vector<std::uint32_t> start, ids;  // per light of the region, candidates
+    };
+    // A region's plane (unit normal n, offset d), its in-plane axes u and v, and its bounding
+    // rectangle [u0, u0 + nu·side] × [v0, v0 + nv·side] cut into tiles
+    struct Frame {
+        glm::dvec3 n{0.0}, u{0.0}, v{0.0};
+        double d = 0.0, u0 = 0.0, v0 = 0.0, side = 0.0;
+        int nu = 0, nv = 0;
+        std::unique_ptr<Tile[]> tiles;
+    };
+
+    void frame(std::uint32_t r) const {
+        const PlanarRegion& region = m_regions.planar[r];
+        if (region.positions.size() < kMinVertices || m_sources.lights[r].empty()) return;
+        Frame f;
+        f.n = region.normal;
+        f.u = glm::normalize(std::abs(f.n.x) < 0.9 ? glm::cross(f.n, {1.0, 0.0, 0.0})
+                                                   : glm::cross(f.n, {0.0, 1.0, 0.0}));
+        f.v = glm::cross(f.n, f.u);
+        double u1 = -1e300, v1 = -1e300;
+        f.u0 = f.v0 = 1e300;
+        for (const glm::dvec3& p : region.positions) {
+            f.u0 = std::min(f.u0, glm::dot(p, f.u));
+            u1 = std::max(u1, glm::dot(p, f.u));
+            f.v0 = std::min(f.v0, glm::dot(p, f.v));
+            v1 = std::max(v1, glm::dot(p, f.v));
+            f.d += glm::dot(p, f.n);
+        }
+        f.d /= static_cast<double>(region.positions.size());
+        // Pushed out by a relative 1e-6, so that every point of the region is inside
+        const double margin = 1e-6 * std::max({u1 - f.u0, v1 - f.v0, 1e-3 * m_g.size});
+        f.u0 -= margin, f.v0 -= margin, u1 += margin, v1 += margin;
+        f.side = std::max({m_tile, (u1 - f.u0) / kMaxTiles, (v1 - f.v0) / kMaxTiles});
+        f.nu = std::max(1, static_cast<int>(std::ceil((u1 - f.u0) / f.side)));
+        f.nv = std::max(1, static_cast<int>(std::ceil((v1 - f.v0) / f.side)));
+        f.tiles = std::make_unique<Tile[]>(static_cast<std::size_t>(f.nu) * f.nv);
+        m_frames[r] = std::move(f);
+    }
+
+    void build(std::uint32_t r, int i, int j, const Tile& tile) const {
+        const Frame& f = m_frames[r];
+        const std::span<const std::uint32_t> lights = m_sources.lights[r];
+        const double a0 = f.u0 + i * f.side, a1 = a0 + f.side;
+        const double b0 = f.v0 + j * f.side, b1 = b0 + f.side;
+        const glm::dvec3 o = f.d * f.n;
+        tile.start.assign(1, 0);
+        for (const std::uint32_t l : lights) {
+            const Patch& lp = m_g.patches[l];
+            const glm::dvec3 points[7] = {lp.p[0],
+                                          lp.p[1],
+                                          lp.p[2],
+                                          o + a0 * f.u + b0 * f.v,
+                                          o + a1 * f.u + b0 * f.v,
+                                          o + a1 * f.u + b1 * f.v,
+                                          o + a0 * f.u + b1 * f.v};
+            m_bvh.query(Hull(points), [&](std::uint32_t id) {
+                if (id != l) tile.ids.push_back(id);
+            });
+            if (tile.ids.size() > kMaxListed * lights.size()) {  // point by point
+                tile.start = {};
+                tile.ids = {};
+                return;
+            }
+            tile.start.push_back(static_cast<std::uint32_t>(tile.ids.size()));
+        }
+        tile.built = true;
+    }
+
+    const BakeGeometry& m_g;
+    const Bvh& m_bvh;
+    const Regions& m_regions;
+    const RegionSources& m_sources;
+    double m_reach, m_tile;
+    std::unique_ptr<std::once_flag[]> m_once;
+    mutable std::vector<Frame> m_frames;
+};
+
 // A split point of a region, and an exact value at a point of a region (a vertex or an edge's
 // midpoint), as the ranks exchange them.
 struct SplitPoint {
@@ -218,8 +374,7 @@ void exchange_refinement(Cluster& cluster, std::vector<std::vector<glm::dvec3>>&
 
 // Exact irradiance at every vertex of `out` (from the cache where known); returns the
 // number of new evaluations.
-std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                              const RegionSources& sources, double reach,
+std::size_t evaluate_vertices(const Regions& regions, const RegionShafts& shafts,
                               const std::vector<char>& mine, Cluster& cluster,
                               IrradianceCache& cache, DiscontinuityMesh& out,
                               ParallelProgress& progress) {
@@ -239,8 +394,7 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
             if (!mine[r]) continue;  // another rank's region
             const glm::dvec3& x = out.mesh.positions[v];
             const glm::dvec3& normal = regions.planar[r].normal;
-            out.irradiance[v] =
-                exact_at(g, bvh, sources.lights[r], sources.luminaires[r], x, normal, occ, reach);
+            out.irradiance[v] = shafts.irradiance(r, x, normal, occ);
             fresh[v] = 1;
         }
     });
@@ -263,10 +417,10 @@ std::size_t evaluate_vertices(const BakeGeometry& g, const Bvh& bvh, const Regio
 
 // The points that split region r's edges whose midpoint's exact irradiance departs from the
 // linear interpolation of their ends; midpoints evaluated here go to `evaluated`.
-void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions,
-                   const RegionSources& sources, const MeshedRegion& m, std::uint32_t r,
-                   const visdb::Rgb* h, double floor, double min_edge, const BakeOptions& options,
-                   const IrradianceCache& cache, std::vector<glm::dvec3>& split,
+void refine_region(const Regions& regions, const RegionShafts& shafts, const MeshedRegion& m,
+                   std::uint32_t r, const visdb::Rgb* h, double floor, double min_edge,
+                   const BakeOptions& options, const IrradianceCache& cache,
+                   std::vector<glm::dvec3>& split,
                    std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
     for (const glm::u32vec3& t : m.triangles)
@@ -289,8 +443,7 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
         if (hit != cache.end()) {
             at_mid = hit->second;
         } else {
-            at_mid = exact_at(g, bvh, sources.lights[r], sources.luminaires[r], mid, rn, occ,
-                              options.reach);
+            at_mid = shafts.irradiance(r, mid, rn, occ);
             evaluated.emplace_back(key, at_mid);
         }
         const double diff = visdb::channel_mean(glm::abs(at_mid - linear));
@@ -302,11 +455,11 @@ void refine_region(const BakeGeometry& g, const Bvh& bvh, const Regions& regions
 
 // One refinement round over every non-emitting region: adds the split points to the regions;
 // returns how many were added.
-std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
-                   const RegionSources& sources, const std::vector<MeshedRegion>& meshed,
-                   const DiscontinuityMesh& current, double min_edge, const BakeOptions& options,
-                   const std::vector<char>& mine, Cluster& cluster, IrradianceCache& cache,
-                   std::uint64_t& evaluations, ParallelProgress& progress) {
+std::size_t refine(Regions& regions, const RegionShafts& shafts,
+                   const std::vector<MeshedRegion>& meshed, const DiscontinuityMesh& current,
+                   double min_edge, const BakeOptions& options, const std::vector<char>& mine,
+                   Cluster& cluster, IrradianceCache& cache, std::uint64_t& evaluations,
+                   ParallelProgress& progress) {
     double h_max = 0.0;
     for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
     // The field an edge's split improves: a departure under kFloorOfMean times the tolerance
@@ -339,7 +492,7 @@ std::size_t refine(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
         progress.add(meshed[r].triangles.size());
         if (regions.emitter[r] || !mine[r]) return;
-        refine_region(g, bvh, regions, sources, meshed[r], static_cast<std::uint32_t>(r),
+        refine_region(regions, shafts, meshed[r], static_cast<std::uint32_t>(r),
                       current.irradiance.data() + region_start[r], floor, min_edge, options, cache,
                       split[r], evaluated[r]);
     });
@@ -370,6 +523,8 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     const double min_edge = refine_min_edge(options, g.size);
     const RegionSources sources{region_lights(regions, shots.lights_of_triangle, tolerance),
                                 region_lights(regions, shots.luminaires_of_triangle, tolerance)};
+    // Tiles of 16 shortest refined edges (0.8 m in a building)
+    const RegionShafts shafts(g, bvh, regions, sources, options.reach, 16.0 * min_edge);
     const auto t_dm = Clock::now();
     visdb::DiscontinuityStats st;
     if (stats && stats->dm) st = *stats->dm;  // the shadow edge counters of shoot_lights
@@ -403,14 +558,14 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
         {
             ParallelProgress vertices(progress, "mesh: exact irradiance at vertices" + of_rounds,
                                       out.mesh.positions.size());
-            st.exact_evaluations += evaluate_vertices(g, bvh, regions, sources, options.reach, mine,
-                                                      cluster, cache, out, vertices);
+            st.exact_evaluations +=
+                evaluate_vertices(regions, shafts, mine, cluster, cache, out, vertices);
         }
         if (round >= options.refine_rounds) break;
         ParallelProgress triangles(progress, "mesh: refinement, triangles" + of_rounds,
                                    out.mesh.triangles.size());
-        const std::size_t added = refine(g, bvh, regions, sources, meshed, out, min_edge, options,
-                                         mine, cluster, cache, st.exact_evaluations, triangles);
+        const std::size_t added = refine(regions, shafts, meshed, out, min_edge, options, mine,
+                                         cluster, cache, st.exact_evaluations, triangles);
         st.refine_points += added;
         if (added == 0) break;
     }

@@ -80,6 +80,35 @@ TEST(DmBake, ConformingOrientedAndAreaPreserved) {
     }
 }
 
+// Every vertex of the discontinuity mesh carries the exact direct light at its place: the
+// refinement's evaluations take each region's occluder candidates from lists per tile of the
+// region (discontinuity.cpp, RegionShafts) instead of a query per point, and must find the
+// occluders a query per point finds. The room above on a fine floor, with a row of posts
+// between the light and the wall.
+TEST(DmBake, EveryVertexGetsTheExactDirectLight) {
+    visdb::Scene scene = room(16);
+    for (int k = 0; k < 4; ++k) {
+        const double y = -0.8 + 0.45 * k;
+        scene.surfaces.push_back(quad_grid("post", 2, {0.6, y, 0.2}, {0, 0.1, 0}, {0, 0, 0.9}, 1));
+    }
+    BakeOptions o;
+    o.bounces = 0;
+    const visdb::Bake b = bake(scene, o);
+    const DirectField field(scene);
+    ASSERT_GT(b.mesh.positions.size(), 500u);
+    std::size_t lit = 0;
+    for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+        const glm::dvec3 x = b.mesh.positions[v];
+        const glm::dvec3 n = glm::normalize(glm::dvec3(b.mesh.normals[v]));
+        const visdb::Rgb exact = field.irradiance(x, n);
+        lit += exact.x > 0.0;
+        for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(b.mesh.irradiance[v][c], exact[c], 1e-5 * (1.0 + exact[c]))
+                << "vertex " << v << " at " << x.x << ", " << x.y << ", " << x.z;
+    }
+    EXPECT_GT(lit, b.mesh.positions.size() / 2);
+}
+
 // The field error's reference is exact direct light: the bakes are direct light too.
 double field_error_of(const visdb::Scene& scene, const BakeOptions& options,
                       std::size_t* triangles = nullptr) {

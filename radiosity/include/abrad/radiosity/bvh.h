@@ -70,6 +70,9 @@ class Bvh {
     /// Over `boxes`: items are indices into it.
     explicit Bvh(std::vector<Box> boxes);
 
+    /// Item `id`'s box.
+    const Box& box(std::uint32_t id) const { return m_boxes[id]; }
+
     /// Calls `visit(patch_index)` for every patch whose box overlaps `query`.
     template <typename Visit>
     void query(const Box& query, Visit&& visit) const {
