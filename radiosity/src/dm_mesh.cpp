@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <glm/geometric.hpp>
 #include <map>
+#include <numeric>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -918,6 +919,38 @@ RegionState build_initial(const PlanarRegion& region, const RegionSetup& setup,
     return st;
 }
 
+// A meshed region in an order that depends on its mesh alone: its vertices by position
+// (lexicographic), its triangles by their vertices (each starting at its smallest, orientation
+// kept). CGAL's triangulation numbers vertices by their memory addresses, so without this two
+// runs of the same bake, or two MPI ranks, wrote the same triangles in different orders.
+void canonical_order(MeshedRegion& m) {
+    std::vector<std::uint32_t> order(m.positions.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return std::tie(m.positions[a].x, m.positions[a].y, m.positions[a].z) <
+               std::tie(m.positions[b].x, m.positions[b].y, m.positions[b].z);
+    });
+    std::vector<std::uint32_t> rank(order.size());
+    MeshedRegion sorted;
+    sorted.positions.reserve(order.size());
+    for (std::uint32_t k = 0; k < order.size(); ++k) {
+        rank[order[k]] = k;
+        sorted.positions.push_back(m.positions[order[k]]);
+        if (!m.source_vertex.empty()) sorted.source_vertex.push_back(m.source_vertex[order[k]]);
+    }
+    sorted.triangles.reserve(m.triangles.size());
+    for (const glm::u32vec3& t : m.triangles) {
+        glm::u32vec3 u(rank[t.x], rank[t.y], rank[t.z]);
+        while (u.x > u.y || u.x > u.z) u = glm::u32vec3(u.y, u.z, u.x);
+        sorted.triangles.push_back(u);
+    }
+    std::sort(sorted.triangles.begin(), sorted.triangles.end(),
+              [](const glm::u32vec3& a, const glm::u32vec3& b) {
+                  return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
+              });
+    m = std::move(sorted);
+}
+
 }  // namespace
 
 std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
@@ -1084,6 +1117,7 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
         for (const SplitHit& hit : hits[r])
             total.conformity_points += own.count(key_of(hit.pos)) == 0 ? 1 : 0;
     }
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t r) { canonical_order(outputs[r]); });
     if (stats) *stats = total;
     return outputs;
 }

@@ -14,6 +14,7 @@
 #include <map>
 #include <random>
 #include <stdexcept>
+#include <tuple>
 #include <unordered_map>
 #include <vector>
 
@@ -470,6 +471,37 @@ TEST(DmMesh, ManyRandomCrossingSegments) {
     std::size_t boundary = 0;
     for (const auto& [e, c] : edge_use) boundary += c == 1 ? 1 : 0;
     EXPECT_EQ(out[0].triangles.size(), 2 * out[0].positions.size() - boundary - 2);
+}
+
+// A region's mesh comes in an order of its own, not of the memory addresses CGAL numbers its
+// vertices by (which differ from process to process): vertices by position (x, then y, then
+// z), triangles by their vertices, each from its smallest, orientation kept. With it the same
+// bake in two processes writes the same bytes (Cli.TheSameBakeInTwoProcessesExportsTheSameBytes).
+TEST(DmMesh, TheMeshComesInAnOrderOfItsOwn) {
+    std::vector<PlanarRegion> regions = floor_and_wall(12);
+    std::mt19937 rng(777);
+    auto uni = [&rng] { return double(rng() >> 5) / double(1u << 27); };
+    for (int k = 0; k < 20; ++k)
+        regions[0].constraints.push_back(
+            {glm::dvec3{uni(), uni(), 0}, glm::dvec3{uni(), uni(), 0}});
+    const Outputs out = mesh(regions);
+    for (std::size_t r = 0; r < out.size(); ++r) {
+        const MeshedRegion& m = out[r];
+        ASSERT_GT(m.positions.size(), 10u);
+        for (std::size_t k = 1; k < m.positions.size(); ++k) {
+            const glm::dvec3 &p = m.positions[k - 1], &q = m.positions[k];
+            EXPECT_TRUE(std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z)) << r << " " << k;
+        }
+        for (std::size_t k = 0; k < m.triangles.size(); ++k) {
+            const glm::u32vec3& t = m.triangles[k];
+            EXPECT_TRUE(t.x < t.y && t.x < t.z) << r << " " << k;
+            if (k > 0) {
+                const glm::u32vec3& u = m.triangles[k - 1];
+                EXPECT_TRUE(std::tie(u.x, u.y, u.z) < std::tie(t.x, t.y, t.z)) << r << " " << k;
+            }
+        }
+        expect_common(regions[r], m);
+    }
 }
 
 TEST(DmMesh, Timing3200TrianglesWith200Segments) {

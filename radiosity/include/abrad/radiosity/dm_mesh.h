@@ -61,7 +61,10 @@ struct DmStats {
 /// (within merge_distance), whether it was there in the input (a finely meshed floor meeting
 /// a wall of two triangles) or added by constraints or refinement, becomes a vertex of both,
 /// with the same position. Area is preserved to 1e-9 relative. Regions are meshed in parallel.
-/// Throws std::invalid_argument for a region with a zero normal or bad indices.
+/// A region's output depends on its mesh alone, not on the order of its input or on memory
+/// addresses: vertices sorted by position (x, then y, then z), triangles by their vertices,
+/// each starting at its smallest. Throws std::invalid_argument for a region with a zero normal
+/// or bad indices.
 std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
                                        const DmOptions& options, DmStats* stats = nullptr);
 
