@@ -107,6 +107,9 @@ bool keep_where(Span& s, double f0, double f1, double tol) {
 
 // Removes `cut` from the sorted disjoint intervals `vis`; true when something was removed.
 bool subtract(std::vector<Span>& vis, const Span& cut) {
+    if (std::none_of(vis.begin(), vis.end(),
+                     [&](const Span& s) { return cut.hi > s.lo && cut.lo < s.hi; }))
+        return false;  // (without building a new list)
     bool changed = false;
     std::vector<Span> out;
     out.reserve(vis.size() + 1);
@@ -161,14 +164,28 @@ bool has_vertex(const Patch& t, const dvec3& v) {
     return t.p[0] == v || t.p[1] == v || t.p[2] == v;
 }
 
-// One occluder edge, shared by the occluders `tris` (indices into Context::occ).
+// One occluder edge p–q, shared by `count` occluders from `first` in EdgeGroups' lists.
 struct EdgeGroup {
     dvec3 p, q;
-    std::vector<std::size_t> tris;
-    std::vector<dvec3> thirds;  // the other vertex of each triangle
+    std::uint32_t first = 0, count = 0;
 };
 
-std::vector<EdgeGroup> edge_groups(const Context& c) {
+// The occluders' edges, each once, with the occluders that share it (indices into
+// Context::occ) and each one's third vertex, in two lists for all edges (a few allocations
+// per receiver, not two per edge).
+struct EdgeGroups {
+    std::vector<EdgeGroup> groups;
+    std::vector<std::size_t> tris;
+    std::vector<dvec3> thirds;
+    std::span<const std::size_t> tris_of(const EdgeGroup& g) const {
+        return {tris.data() + g.first, g.count};
+    }
+    std::span<const dvec3> thirds_of(const EdgeGroup& g) const {
+        return {thirds.data() + g.first, g.count};
+    }
+};
+
+EdgeGroups edge_groups(const Context& c) {
     struct Rec {
         dvec3 lo, hi, third;
         std::size_t tri;
@@ -190,19 +207,22 @@ std::vector<EdgeGroup> edge_groups(const Context& c) {
         return x.tri < y.tri;
     };
     std::sort(recs.begin(), recs.end(), key_less);
-    std::vector<EdgeGroup> groups;
+    EdgeGroups out;
+    out.tris.reserve(recs.size());
+    out.thirds.reserve(recs.size());
     for (std::size_t i = 0; i < recs.size();) {
-        EdgeGroup g{recs[i].lo, recs[i].hi, {}, {}};
+        EdgeGroup g{recs[i].lo, recs[i].hi, static_cast<std::uint32_t>(out.tris.size()), 0};
         std::size_t j = i;
         for (; j < recs.size() && recs[j].lo == g.p && recs[j].hi == g.q; ++j) {
-            if (!g.tris.empty() && g.tris.back() == recs[j].tri) continue;
-            g.tris.push_back(recs[j].tri);
-            g.thirds.push_back(recs[j].third);
+            if (g.count > 0 && out.tris.back() == recs[j].tri) continue;
+            out.tris.push_back(recs[j].tri);
+            out.thirds.push_back(recs[j].third);
+            ++g.count;
         }
-        groups.push_back(std::move(g));
+        out.groups.push_back(g);
         i = j;
     }
-    return groups;
+    return out;
 }
 
 // A cutter seen from a light point L: hidden iff all four functions are > tolerances.
@@ -296,7 +316,7 @@ bool lit_span(const Context& c, const EdgeFromLight& e, double h_top, Span& s) {
 }
 
 // Segments cast by the point light L (EV events).
-void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& groups,
+void ev_events(const Context& c, const dvec3& L, const EdgeGroups& groups,
                std::vector<ShadowSegment>& out, ShadowStats& st) {
     const double hl = height(c, L);
     if (hl <= c.tol) return;  // L on or behind the receiver's plane
@@ -304,7 +324,9 @@ void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& g
     const std::vector<CutterView> views = cutter_views(c, L, hl);
 
     std::vector<Span> vis;
-    for (const EdgeGroup& g : groups) {
+    for (const EdgeGroup& g : groups.groups) {
+        const std::span<const std::size_t> tris = groups.tris_of(g);
+        const std::span<const dvec3> thirds = groups.thirds_of(g);
         const dvec3 p = g.p, q = g.q;
         const double hp = height(c, p), hq = height(c, q);
         // Occluder edges in the receiver's plane cast nothing
@@ -312,11 +334,11 @@ void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& g
         if (std::max(hp, hq) <= 0.0 || std::min(hp, hq) >= h_top) continue;
 
         // Shared edge: no silhouette when the two faces are on opposite sides of the wedge
-        if (g.tris.size() == 2 &&
-            std::abs(c.occ[g.tris[0]]->opacity - c.occ[g.tris[1]]->opacity) <= 1e-12) {
+        if (tris.size() == 2 &&
+            std::abs(c.occ[tris[0]]->opacity - c.occ[tris[1]]->opacity) <= 1e-12) {
             const dvec3 w = glm::cross(p - L, q - L);
             const double wt = kRel * glm::length(w) * c.scale;
-            const double s0 = glm::dot(w, g.thirds[0] - L), s1 = glm::dot(w, g.thirds[1] - L);
+            const double s0 = glm::dot(w, thirds[0] - L), s1 = glm::dot(w, thirds[1] - L);
             if ((s0 > wt && s1 < -wt) || (s0 < -wt && s1 > wt)) {
                 ++st.shared_edges_skipped;
                 continue;
@@ -334,7 +356,7 @@ void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& g
         // Remove the parts hidden from L by other opaque occluders
         vis.assign(1, s);
         for (const CutterView& v : views) {
-            if (std::find(g.tris.begin(), g.tris.end(), v.occ_index) != g.tris.end()) continue;
+            if (std::find(tris.begin(), tris.end(), v.occ_index) != tris.end()) continue;
             Span hs;
             if (!hidden_by(c, v, e, s, hs)) continue;
             if (subtract(vis, hs)) ++st.segments_split;
@@ -350,13 +372,12 @@ void ev_events(const Context& c, const dvec3& L, const std::vector<EdgeGroup>& g
 // Contact edges: occluder edges in the receiver's plane of faces that stand out of it (a box
 // standing on a floor, a wall on a slab that runs under it). A point source's light stops
 // there whatever the point's place, so they bound its shadow where ev_events casts nothing.
-void contact_edges(const Context& c, const std::vector<EdgeGroup>& groups,
-                   std::vector<ShadowSegment>& out) {
+void contact_edges(const Context& c, const EdgeGroups& groups, std::vector<ShadowSegment>& out) {
     const double keep_len = std::max(c.min_length, c.tol);
-    for (const EdgeGroup& g : groups) {
+    for (const EdgeGroup& g : groups.groups) {
         if (std::abs(height(c, g.p)) > c.tol || std::abs(height(c, g.q)) > c.tol) continue;
         bool stands = false;
-        for (const dvec3& third : g.thirds) stands |= std::abs(height(c, third)) > c.tol;
+        for (const dvec3& third : groups.thirds_of(g)) stands |= std::abs(height(c, third)) > c.tol;
         if (!stands) continue;
         // Clip to the receiver triangle
         Span s{0.0, 1.0};
@@ -785,7 +806,7 @@ std::vector<ShadowSegment> point_shadow_edges(const glm::dvec3& source, const Pa
     if (make_context(c, receiver, nullptr, points, occluders, min_length)) {
         // EV events from the one point: its VE wedges through the occluders' silhouette edges
         std::vector<ShadowSegment> raw;
-        const std::vector<EdgeGroup> groups = edge_groups(c);
+        const EdgeGroups groups = edge_groups(c);
         ev_events(c, source, groups, raw, st);
         contact_edges(c, groups, raw);
         out = merge(c, raw);
@@ -809,7 +830,7 @@ std::vector<ShadowSegment> shadow_edges(const Patch& light, LightModel model, co
 
     // EV events from each light point
     std::vector<ShadowSegment> raw;
-    const std::vector<EdgeGroup> groups = edge_groups(c);
+    const EdgeGroups groups = edge_groups(c);
     if (model == LightModel::Centroid) {
         ev_events(c, (light.p[0] + light.p[1] + light.p[2]) / 3.0, groups, raw, st);
     } else {
