@@ -201,21 +201,12 @@ visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visd
                             std::span<const std::uint32_t> lights, const Bvh& bvh,
                             const glm::dvec3& x, const glm::dvec3& n,
                             std::vector<const Patch*>& occ, double reach) {
-    visdb::Rgb h(0.0);
-    for (const std::uint32_t l : lights) {
-        const Patch& lp = patches[l];
-        // Behind the light's plane (it gives nothing), or beyond its reach (cull.h)
-        if (glm::dot(x - lp.p[0], cross_normal(lp)) <= 0.0) continue;
-        if (reach > 0.0) {
-            const glm::dvec3 d = glm::abs(x - centroid(lp));
-            if (d.x > reach || d.y > reach || d.z > reach) continue;
-        }
-        occ.clear();
-        for_each_shadow_candidate(bvh, patches, l, x,
-                                  [&](std::uint32_t id) { occ.push_back(&patches[id]); });
-        h += emittance[l] * visible_form_factor(x, n, lp, occ);
-    }
-    return h;
+    return exact_irradiance_with(patches, emittance, lights, x, n, occ, reach,
+                                 [&](std::size_t k, std::vector<const Patch*>& out) {
+                                     for_each_shadow_candidate(
+                                         bvh, patches, lights[k], x,
+                                         [&](std::uint32_t id) { out.push_back(&patches[id]); });
+                                 });
 }
 
 visdb::Rgb DirectField::irradiance(const glm::dvec3& x, const glm::dvec3& n) const {

@@ -16,6 +16,7 @@
 #include <memory>
 #include <mutex>
 #include <numeric>
+#include <tuple>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
@@ -24,7 +25,6 @@
 #include "abrad/check.h"
 #include "abrad/radiosity/cluster.h"
 #include "abrad/radiosity/direct.h"
-#include "abrad/radiosity/exact.h"
 #include "stages.h"
 
 namespace abrad::radiosity {
@@ -56,10 +56,6 @@ struct PointKeyHash {
 };
 // Exact irradiance by region and exact position, kept across rounds.
 using IrradianceCache = std::unordered_map<PointKey, visdb::Rgb, PointKeyHash>;
-
-bool lexicographically_less(const glm::dvec3& a, const glm::dvec3& b) {
-    return std::lexicographical_compare(&a.x, &a.x + 3, &b.x, &b.x + 3);
-}
 
 // The shadow segments as the regions' constraints, in one order whatever order the lights
 // and receivers finished in (the mesh was nondeterministic by a few triangles). Returns how
@@ -159,17 +155,6 @@ struct RegionSources {
     RegionLights lights, luminaires;
 };
 
-// The exact direct light at x (unit normal n) of a region: its light triangles `lights` and its
-// luminaires `luminaires` (indices into g.luminaires).
-visdb::Rgb exact_at(const BakeGeometry& g, const Bvh& bvh, std::span<const std::uint32_t> lights,
-                    std::span<const std::uint32_t> luminaires, const glm::dvec3& x,
-                    const glm::dvec3& n, std::vector<const Patch*>& occ, double reach) {
-    visdb::Rgb h = exact_irradiance(g.patches, g.emittance, lights, bvh, x, n, occ, reach);
-    for (const std::uint32_t k : luminaires)
-        h += luminaires_irradiance({&g.luminaires[k], 1}, g.patches, bvh, x, n, reach);
-    return h;
-}
-
 // The occluder candidates of each region's light triangles, found once per tile of the
 // region: the region's bounding rectangle (in its plane) is cut into square tiles of about
 // `tile` metres, and a tile's candidates for a light are those of the shaft of the light and
@@ -196,46 +181,28 @@ class RegionShafts {
           m_once(std::make_unique<std::once_flag[]>(regions.planar.size())),
           m_frames(regions.planar.size()) {}
 
-    // The direct light at x (unit normal n) of region r, as exact_at.
+    // The exact direct light at x (unit normal n) of region r: its light triangles (their
+    // occluder candidates from x's tile, or a query per point) and its luminaires.
     visdb::Rgb irradiance(std::uint32_t r, const glm::dvec3& x, const glm::dvec3& n,
                           std::vector<const Patch*>& occ) const {
-        std::call_once(m_once[r], [&] { frame(r); });
-        const Frame& f = m_frames[r];
-        const Tile* tile = nullptr;
-        if (f.tiles) {
-            const auto cell = [](double t, double t0, double side, int count) {
-                return std::clamp(static_cast<int>(std::floor((t - t0) / side)), 0, count - 1);
-            };
-            const int i = cell(glm::dot(x, f.u), f.u0, f.side, f.nu);
-            const int j = cell(glm::dot(x, f.v), f.v0, f.side, f.nv);
-            tile = &f.tiles[static_cast<std::size_t>(j) * f.nu + i];
-            std::call_once(tile->once, [&] { build(r, i, j, *tile); });
-            if (!tile->built) tile = nullptr;
-        }
-        if (!tile)
-            return exact_at(m_g, m_bvh, m_sources.lights[r], m_sources.luminaires[r], x, n, occ,
-                            m_reach);
         const std::span<const std::uint32_t> lights = m_sources.lights[r];
         visdb::Rgb h(0.0);
-        for (std::size_t k = 0; k < lights.size(); ++k) {
-            const std::uint32_t l = lights[k];
-            const Patch& lp = m_g.patches[l];
-            // As exact_irradiance: nothing from behind the light's plane or beyond its reach
-            if (glm::dot(x - lp.p[0], cross_normal(lp)) <= 0.0) continue;
-            if (m_reach > 0.0) {
-                const glm::dvec3 d = glm::abs(x - centroid(lp));
-                if (d.x > m_reach || d.y > m_reach || d.z > m_reach) continue;
-            }
-            const glm::dvec3 corners[4] = {lp.p[0], lp.p[1], lp.p[2], x};
-            const Hull shaft(corners);
-            occ.clear();
-            for (std::uint32_t c = tile->start[k]; c < tile->start[k + 1]; ++c) {
-                const std::uint32_t id = tile->ids[c];
-                const Box& b = m_bvh.box(id);
-                if (b.overlaps(shaft.box()) && shaft.may_overlap(b))
-                    occ.push_back(&m_g.patches[id]);
-            }
-            h += m_g.emittance[l] * visible_form_factor(x, n, lp, occ);
+        if (const Tile* tile = tile_of(r, x)) {
+            // The tile's candidates whose box meets the shaft of the light and x
+            const auto candidates = [&](std::size_t k, std::vector<const Patch*>& out) {
+                const Patch& lp = m_g.patches[lights[k]];
+                const glm::dvec3 corners[4] = {lp.p[0], lp.p[1], lp.p[2], x};
+                const Hull shaft(corners);
+                for (std::uint32_t c = tile->start[k]; c < tile->start[k + 1]; ++c) {
+                    const Box& b = m_bvh.box(tile->ids[c]);
+                    if (b.overlaps(shaft.box()) && shaft.may_overlap(b))
+                        out.push_back(&m_g.patches[tile->ids[c]]);
+                }
+            };
+            h = exact_irradiance_with(m_g.patches, m_g.emittance, lights, x, n, occ, m_reach,
+                                      candidates);
+        } else {
+            h = exact_irradiance(m_g.patches, m_g.emittance, lights, m_bvh, x, n, occ, m_reach);
         }
         for (const std::uint32_t k : m_sources.luminaires[r])
             h += luminaires_irradiance({&m_g.luminaires[k], 1}, m_g.patches, m_bvh, x, n, m_reach);
@@ -257,14 +224,28 @@ class RegionShafts {
         std::unique_ptr<Tile[]> tiles;
     };
 
+    // The tile of region r holding x, its lists built; null when the region or the tile
+    // queries point by point.
+    const Tile* tile_of(std::uint32_t r, const glm::dvec3& x) const {
+        std::call_once(m_once[r], [&] { frame(r); });
+        const Frame& f = m_frames[r];
+        if (!f.tiles) return nullptr;
+        const auto cell = [](double t, double t0, double side, int count) {
+            return std::clamp(static_cast<int>(std::floor((t - t0) / side)), 0, count - 1);
+        };
+        const int i = cell(glm::dot(x, f.u), f.u0, f.side, f.nu);
+        const int j = cell(glm::dot(x, f.v), f.v0, f.side, f.nv);
+        const Tile& tile = f.tiles[static_cast<std::size_t>(j) * f.nu + i];
+        std::call_once(tile.once, [&] { build(r, i, j, tile); });
+        return tile.built ? &tile : nullptr;
+    }
+
     void frame(std::uint32_t r) const {
         const PlanarRegion& region = m_regions.planar[r];
         if (region.positions.size() < kMinVertices || m_sources.lights[r].empty()) return;
         Frame f;
         f.n = region.normal;
-        f.u = glm::normalize(std::abs(f.n.x) < 0.9 ? glm::cross(f.n, {1.0, 0.0, 0.0})
-                                                   : glm::cross(f.n, {0.0, 1.0, 0.0}));
-        f.v = glm::cross(f.n, f.u);
+        std::tie(f.u, f.v) = visdb::orthonormal_basis(f.n);
         double u1 = -1e300, v1 = -1e300;
         f.u0 = f.v0 = 1e300;
         for (const glm::dvec3& p : region.positions) {

@@ -4,11 +4,14 @@
 // exact clipping in visible_form_factor).
 
 #include <cstdint>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 #include <span>
 #include <vector>
 
 #include "abrad/radiosity/bvh.h"
+#include "abrad/radiosity/exact.h"
 #include "abrad/radiosity/geometry.h"
 #include "abrad/visdb/model.h"
 
@@ -25,6 +28,32 @@ void for_each_shadow_candidate(const Bvh& bvh, std::span<const Patch> patches, s
     bvh.query(Hull(corners), [&](std::uint32_t id) {
         if (id != light) visit(id);
     });
+}
+
+/// exact_irradiance (below) with each light's occluder candidates from `candidates(k, occ)`,
+/// which appends to `occ` (emptied before each light) those that may lie between x and the
+/// light triangle patches[lights[k]]: exact_irradiance's shaft query, or a shorter list a
+/// caller filters alike (discontinuity.cpp's tiles). One loop, so both skip the same lights.
+template <typename Candidates>
+visdb::Rgb exact_irradiance_with(std::span<const Patch> patches,
+                                 std::span<const visdb::Rgb> emittance,
+                                 std::span<const std::uint32_t> lights, const glm::dvec3& x,
+                                 const glm::dvec3& n, std::vector<const Patch*>& occ, double reach,
+                                 Candidates&& candidates) {
+    visdb::Rgb h(0.0);
+    for (std::size_t k = 0; k < lights.size(); ++k) {
+        const Patch& lp = patches[lights[k]];
+        // Behind the light's plane (it gives nothing), or beyond its reach (cull.h)
+        if (glm::dot(x - lp.p[0], cross_normal(lp)) <= 0.0) continue;
+        if (reach > 0.0) {
+            const glm::dvec3 d = glm::abs(x - centroid(lp));
+            if (d.x > reach || d.y > reach || d.z > reach) continue;
+        }
+        occ.clear();
+        candidates(k, occ);
+        h += emittance[lights[k]] * visible_form_factor(x, n, lp, occ);
+    }
+    return h;
 }
 
 /// Exact direct irradiance H (W/m², RGB) at `x` on a surface with unit normal `n` (its front)
