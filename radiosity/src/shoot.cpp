@@ -810,7 +810,7 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
             rasterize(nearest_and_patch.second);
     }
     result.visited = buffer.patch_of.size();
-    result.rasterized = buffer.patch_of;
+    if (options.cull_listed) result.rasterized = buffer.patch_of;
     result.fragments = buffer.fragments.size();
 }
 

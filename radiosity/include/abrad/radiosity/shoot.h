@@ -105,7 +105,9 @@ struct ShootResult {
     std::size_t hidden_pieces = 0;        ///< patch pieces culled as hidden behind closed pixels
     std::size_t hidden_nodes = 0;         ///< BVH nodes skipped whole (behind or hidden)
     std::size_t visited = 0;              ///< patches clipped and projected
-    /// The patches clipped and projected (not culled whole), in the order visited.
+    /// With ShootOptions::cull_listed (its receivers are found from them): the patches clipped
+    /// and projected (not culled whole), in the order visited. Empty otherwise, so that the
+    /// interreflection's rows and the gathers copy nothing they do not read.
     std::vector<std::uint32_t> rasterized;
     double seconds_occlusion = 0.0;  ///< time spent merging occlusion lists (Algorithm 2)
 
