@@ -927,8 +927,7 @@ void canonical_order(MeshedRegion& m) {
     std::vector<std::uint32_t> order(m.positions.size());
     std::iota(order.begin(), order.end(), 0u);
     std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-        return std::tie(m.positions[a].x, m.positions[a].y, m.positions[a].z) <
-               std::tie(m.positions[b].x, m.positions[b].y, m.positions[b].z);
+        return lexicographically_less(m.positions[a], m.positions[b]);
     });
     std::vector<std::uint32_t> rank(order.size());
     MeshedRegion sorted;

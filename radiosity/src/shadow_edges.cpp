@@ -81,12 +81,6 @@ struct Span {
     double lo, hi;
 };
 
-bool less3(const dvec3& a, const dvec3& b) {
-    if (a.x != b.x) return a.x < b.x;
-    if (a.y != b.y) return a.y < b.y;
-    return a.z < b.z;
-}
-
 double cross2(const dvec2& a, const dvec2& b) { return a.x * b.y - a.y * b.x; }
 
 // Keeps the t of `s` where f(t) = f0 + t (f1 - f0) >= tol. False when nothing is left.
@@ -155,8 +149,8 @@ double height(const Context& c, const dvec3& p) { return glm::dot(p - c.r0, c.nr
 
 bool same_triangle(const Patch& a, const Patch& b) {
     std::array<dvec3, 3> x{a.p[0], a.p[1], a.p[2]}, y{b.p[0], b.p[1], b.p[2]};
-    std::sort(x.begin(), x.end(), less3);
-    std::sort(y.begin(), y.end(), less3);
+    std::sort(x.begin(), x.end(), lexicographically_less);
+    std::sort(y.begin(), y.end(), lexicographically_less);
     return x == y;
 }
 
@@ -197,13 +191,13 @@ EdgeGroups edge_groups(const Context& c) {
         for (int k = 0; k < 3; ++k) {
             dvec3 a = t.p[k], b = t.p[(k + 1) % 3];
             if (a == b) continue;
-            if (less3(b, a)) std::swap(a, b);
+            if (lexicographically_less(b, a)) std::swap(a, b);
             recs.push_back({a, b, t.p[(k + 2) % 3], i});
         }
     }
     auto key_less = [](const Rec& x, const Rec& y) {
-        if (x.lo != y.lo) return less3(x.lo, y.lo);
-        if (x.hi != y.hi) return less3(x.hi, y.hi);
+        if (x.lo != y.lo) return lexicographically_less(x.lo, y.lo);
+        if (x.hi != y.hi) return lexicographically_less(x.hi, y.hi);
         return x.tri < y.tri;
     };
     std::sort(recs.begin(), recs.end(), key_less);
@@ -423,7 +417,7 @@ std::vector<VRec> occluder_vertices(const Context& c) {
     for (std::size_t i = 0; i < c.occ.size(); ++i)
         for (const dvec3& v : c.occ[i]->p) verts.push_back({v, i});
     std::sort(verts.begin(), verts.end(), [](const VRec& x, const VRec& y) {
-        return x.v != y.v ? less3(x.v, y.v) : x.tri < y.tri;
+        return x.v != y.v ? lexicographically_less(x.v, y.v) : x.tri < y.tri;
     });
     return verts;
 }

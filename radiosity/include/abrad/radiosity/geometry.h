@@ -37,4 +37,13 @@ inline glm::dvec3 unit_normal(const Patch& p) { return glm::normalize(cross_norm
 /// Centroid, metres.
 inline glm::dvec3 centroid(const Patch& p) { return (p.p[0] + p.p[1] + p.p[2]) / 3.0; }
 
+/// True when a comes before b by x, then y, then z: the one order of points where an order
+/// must not depend on how they were found (shadow segments, edge midpoints, a meshed region's
+/// vertices).
+inline bool lexicographically_less(const glm::dvec3& a, const glm::dvec3& b) {
+    if (a.x != b.x) return a.x < b.x;
+    if (a.y != b.y) return a.y < b.y;
+    return a.z < b.z;
+}
+
 }  // namespace abrad::radiosity
