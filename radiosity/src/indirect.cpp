@@ -683,8 +683,8 @@ class Solver {
         Cluster* const cluster = m_options.cluster;
         const bool shared = cluster && cluster->size() > 1;
         std::vector<double> secs(n, 0.0);
-        constexpr std::size_t kSlice = 4096;  // rows per exchange (a few tens of MB)
-        for (std::size_t k0 = 0; k0 < n; k0 += shared ? kSlice : n) {
+        constexpr std::size_t kSlice = 4096;              // rows per exchange (a few tens of MB)
+        for (std::size_t k0 = 0; k0 < n; k0 += kSlice) {  // (alone: one pass, then break)
             const std::size_t k1 = shared ? std::min(n, k0 + kSlice) : n;
             std::vector<std::uint32_t> mine;
             if (shared) {
