@@ -32,10 +32,15 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <optional>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -104,6 +109,7 @@ struct Context {
     bool refit = false;         // v1's values refitted at each collapse
     double budget = 0.0;        // the area-weighted error allowed in all (0: no budget)
     double straight = 0.0;      // an outline is straight within this distance (m)
+    std::size_t max_held = 0;   // SimplifyOptions::max_held
 };
 
 constexpr double kInside = -1e-6;        // barycentric slack for a sample on an edge
@@ -233,6 +239,7 @@ class ModIrradianceBound : public OpenMesh::Decimater::ModBaseT<Mesh> {
         m_samples.clear();
         hold_own(ci.v0);
         for (auto f : m.vf_range(ci.v0)) hold_owned(f);
+        if (m_context->max_held > 0 && m_samples.size() > m_context->max_held) return false;
         if (!m_context->refit) return true;
         hold_own(ci.v1);
         for (auto f : m.vf_range(ci.v1)) {
@@ -491,6 +498,43 @@ void build(const visdb::BakeMesh& in, const glm::dvec3& origin, Built& out) {
     }
 }
 
+// Locks every vertex of `b` whose bake vertex lies within `tolerance` of another bake vertex
+// (SimplifyOptions::keep_shared): twins where regions meet, also those a mesher's rounding
+// left a few ulps apart. Found through a hash grid of cells 4 × `tolerance` wide.
+void lock_shared(const visdb::BakeMesh& in, double tolerance, Built& b) {
+    const double cell = 4.0 * tolerance;
+    using Key = std::array<std::int64_t, 3>;
+    const auto key_of = [&](const glm::dvec3& p) {
+        return Key{static_cast<std::int64_t>(std::floor(p.x / cell)),
+                   static_cast<std::int64_t>(std::floor(p.y / cell)),
+                   static_cast<std::int64_t>(std::floor(p.z / cell))};
+    };
+    struct KeyHash {
+        std::size_t operator()(const Key& k) const {
+            return std::hash<std::int64_t>()(k[0] * 73856093 ^ k[1] * 19349663 ^ k[2] * 83492791);
+        }
+    };
+    std::unordered_map<Key, std::vector<std::uint32_t>, KeyHash> grid;
+    for (std::uint32_t i = 0; i < in.positions.size(); ++i)
+        grid[key_of(in.positions[i])].push_back(i);
+    std::vector<char> shared(in.positions.size(), 0);
+    for (std::uint32_t i = 0; i < in.positions.size(); ++i) {
+        const Key k = key_of(in.positions[i]);
+        for (std::int64_t dx = -1; dx <= 1 && !shared[i]; ++dx)
+            for (std::int64_t dy = -1; dy <= 1 && !shared[i]; ++dy)
+                for (std::int64_t dz = -1; dz <= 1 && !shared[i]; ++dz) {
+                    const auto it = grid.find({k[0] + dx, k[1] + dy, k[2] + dz});
+                    if (it == grid.end()) continue;
+                    for (const std::uint32_t j : it->second)
+                        if (j != i && glm::length(in.positions[j] - in.positions[i]) <= tolerance)
+                            shared[i] = 1;
+                }
+    }
+    Mesh& m = b.mesh;
+    for (auto v : m.vertices())
+        if (shared[m.property(b.source, v)]) m.status(v).set_locked(true);
+}
+
 // The least-squares refit of the kept vertices' values: the values that minimise the
 // area-weighted squared difference between the simplified mesh's linear interpolation and
 // every sample of the bake (the removed vertices, owned by the faces, and the kept vertices
@@ -632,9 +676,11 @@ double brightest(const visdb::BakeMesh& mesh) {
 
 // The simplified bake mesh from the decimated OpenMesh mesh: kept vertices carry the bake's
 // exact position, normal, irradiance and radiosity.
-visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b, const Context& c) {
+visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b, const Context& c,
+                        std::vector<std::uint32_t>* kept) {
     const Mesh& m = b.mesh;
     visdb::BakeMesh out;
+    if (kept) kept->clear();
     std::vector<std::uint32_t> index(m.n_vertices(), std::numeric_limits<std::uint32_t>::max());
     for (auto f : m.faces()) {
         glm::u32vec3 tri{};
@@ -645,6 +691,7 @@ visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b, const Context
                 const std::uint32_t src = m.property(b.source, v);
                 id = static_cast<std::uint32_t>(out.positions.size());
                 out.positions.push_back(in.positions[src]);
+                if (kept) kept->push_back(src);
                 out.normals.push_back(in.normals[src]);
                 const Vec3& h = m.property(c.irradiance, v);
                 const Vec3& r = m.property(c.radiosity, v);
@@ -673,6 +720,15 @@ struct Decimation {
 void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
               std::optional<std::size_t> limit, Decimation& d) {
     build(in, visdb::local_origin(in.positions), d.b);
+    if (options.keep_shared) {
+        glm::dvec3 lo(std::numeric_limits<double>::max()),
+            hi(std::numeric_limits<double>::lowest());
+        for (const glm::dvec3& p : in.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+        lock_shared(in, in.positions.empty() ? 0.0 : kStraight * glm::length(hi - lo), d.b);
+    }
     Mesh& m = d.b.mesh;
     Context& context = d.context;
 
@@ -698,6 +754,7 @@ void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
     }
     context.error = options.error;
     context.refit = options.refit;
+    context.max_held = options.max_held;
     const double floor = options.floor * brightest(in);
     context.floor = Vec3(floor, floor, floor);
     for (auto v : m.vertices()) {
@@ -752,19 +809,19 @@ std::string to_string(const SimplifyStats& s) {
 }
 
 visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& options,
-                         SimplifyStats* stats) {
+                         SimplifyStats* stats, std::vector<std::uint32_t>* kept) {
     const auto start = std::chrono::steady_clock::now();
     check_mesh(in, options);
     auto d = std::make_unique<Decimation>();
     decimate(in, options, std::nullopt, *d);
-    if (d->context.budget > 0.0 && d->spent > d->context.budget) {
+    if (options.exact_budget && d->context.budget > 0.0 && d->spent > d->context.budget) {
         // The last collapse went past the budget: the same decimation again (it is
         // deterministic), stopped before it
         const std::size_t within = d->within_budget;
         d = std::make_unique<Decimation>();
         decimate(in, options, within, *d);
     }
-    visdb::BakeMesh out = collect(in, d->b, d->context);
+    visdb::BakeMesh out = collect(in, d->b, d->context, kept);
     if (stats) {
         *stats = {
             .triangles_before = in.triangles.size(),

@@ -361,6 +361,68 @@ TEST(Simplify, BudgetBoundsTheAreaWeightedChange) {
     }
 }
 
+// `kept` names each vertex's place in the input; with keep_shared, the vertices two surfaces
+// both have (their shared edge, where the surfaces meet) all stay, on both sides, though
+// their field is linear and the edge straight; without it the edge keeps its ends only.
+TEST(Simplify, KeptNamesTheInputVertexAndSharedVerticesStay) {
+    const Field plane = [](double x, double y) { return 1.0 + x + 2.0 * y; };
+    visdb::BakeMesh a = grid(6, plane, 0);
+    const visdb::BakeMesh b = grid(6, plane, 1);
+    const auto offset = static_cast<std::uint32_t>(a.positions.size());
+    for (std::size_t v = 0; v < b.positions.size(); ++v) {
+        a.positions.push_back(b.positions[v] + glm::dvec3(1.0, 0.0, 0.0));
+        a.normals.push_back(b.normals[v]);
+        a.irradiance.push_back(a.irradiance[v]);  // the field of the first square: still equal
+        a.radiosity.push_back(a.radiosity[v]);    // where the two meet at x = 1 (both linear)
+    }
+    for (std::size_t v = offset; v < a.positions.size(); ++v) {
+        const auto h = static_cast<float>(plane(a.positions[v].x, a.positions[v].y));
+        a.irradiance[v] = glm::vec3(h);
+        a.radiosity[v] = glm::vec3(0.5f * h);
+    }
+    for (std::size_t t = 0; t < b.triangles.size(); ++t) {
+        a.triangles.push_back(b.triangles[t] + glm::u32vec3(offset));
+        a.triangle_surface.push_back(1);
+    }
+    const auto on_shared_edge = [](const visdb::BakeMesh& m) {
+        std::size_t n = 0;
+        for (const glm::dvec3& p : m.positions) n += p.x == 1.0;
+        return n;
+    };
+    for (const bool keep : {false, true}) {
+        std::vector<std::uint32_t> kept;
+        const visdb::BakeMesh out =
+            simplify(a, {.error = 0.01, .keep_shared = keep}, nullptr, &kept);
+        ASSERT_EQ(kept.size(), out.positions.size());
+        for (std::size_t v = 0; v < kept.size(); ++v) {
+            ASSERT_LT(kept[v], a.positions.size());
+            EXPECT_EQ(out.positions[v], a.positions[kept[v]]);
+            EXPECT_EQ(out.irradiance[v], a.irradiance[kept[v]]);
+            EXPECT_EQ(out.radiosity[v], a.radiosity[kept[v]]);
+        }
+        // 7 vertices on x = 1 in each square; without keep_shared only the two corners each
+        EXPECT_EQ(on_shared_edge(out), keep ? 14u : 4u) << "keep_shared " << keep;
+        EXPECT_LT(out.triangles.size(), a.triangles.size() / 4) << "keep_shared " << keep;
+    }
+}
+
+// Without exact_budget the decimation keeps the collapse that passed the budget: at most
+// one collapse (two triangles) more than the exact stop, never fewer.
+TEST(Simplify, InexactBudgetKeepsTheOneCollapsePastIt) {
+    const Field wave = [](double x, double y) { return 2.0 + std::sin(6.0 * x) * y * y + 0.5 * x; };
+    const visdb::BakeMesh in = grid(24, wave);
+    for (const double budget : {0.001, 0.004}) {
+        SimplifyStats exact, fast;
+        const visdb::BakeMesh a = simplify(in, {.error = 1.0, .budget = budget}, &exact);
+        const visdb::BakeMesh b =
+            simplify(in, {.error = 1.0, .budget = budget, .exact_budget = false}, &fast);
+        EXPECT_LE(exact.mean_change, budget * (1.0 + 1e-9));
+        EXPECT_GE(fast.mean_change, exact.mean_change);
+        EXPECT_LE(b.triangles.size(), a.triangles.size());
+        EXPECT_GE(b.triangles.size() + 2, a.triangles.size());
+    }
+}
+
 TEST(Simplify, RefusesBadOptionsAndMeshes) {
     const visdb::BakeMesh in = grid(2, [](double, double) { return 1.0; });
     EXPECT_THROW(simplify(in, {.error = 0.0}), ExportError);

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdint>
@@ -177,8 +178,10 @@ TEST_F(Cli, KilledBakeLeavesDatabaseReadableAndUnchanged) {
 // Import, bake, export through the command line; the exported PLY's header is the contract and
 // an unoccluded floor vertex carries the closed-form irradiance of the 1×1 m light.
 TEST_F(Cli, RunExportsPlyContractWithExactIrradiance) {
-    const Result r = run("run --bounces 0 " + sample("paper_simple/paper_occluder.obj") +
-                         " --out " + m_dir.path().string());
+    // As meshed (--coarsen 0): the floor vertex checked below is one the coarsening may remove
+    const Result r =
+        run("run --bounces 0 --coarsen 0 " + sample("paper_simple/paper_occluder.obj") + " --out " +
+            m_dir.path().string());
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string ply = file_bytes(path("paper_occluder.ply"));
     const std::string header_end = "end_header\n";
@@ -257,7 +260,7 @@ std::map<std::string, std::string> key_values(const std::string& text) {
 }
 
 // The paper's room with its occluder: discontinuity meshing cuts the field error of the
-// 2-triangle walls and the floor's shadow to a small fraction.
+// 2-triangle walls and the floor's shadow to a small fraction, in fewer triangles.
 TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     const std::string db = baked_db();  // bake "first": the defaults, --dm on
     ASSERT_EQ(run("bake --bounces 0 --db " + db + " --name plain --dm off").status, 0);
@@ -267,7 +270,9 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     ASSERT_EQ(off.status, 0) << off.output;
     auto kv_on = key_values(on.output), kv_off = key_values(off.output);
     EXPECT_EQ(kv_off["triangles"], "3213");
-    EXPECT_GT(std::stoul(kv_on["triangles"]), 3213u);
+    // Meshed along the shadows and refined, then coarsened where the light is near linear
+    // (the default --coarsen): fewer triangles than the model at a tenth of its error
+    EXPECT_LT(std::stoul(kv_on["triangles"]), 3213u);
     EXPECT_NEAR(std::stod(kv_on["receiver_area_m2"]), std::stod(kv_off["receiver_area_m2"]), 1e-6);
     const double e_on = std::stod(kv_on["relative_l1"]), e_off = std::stod(kv_off["relative_l1"]);
     EXPECT_GT(e_off, 0.2);
@@ -314,6 +319,77 @@ TEST_F(Cli, FurnishedRoomMeshConformsAndKeepsArea) {
                   .status,
               0);
     EXPECT_GT(abrad::testing::count_t_vertices(store.load_bake("plain").mesh), 0u);
+}
+
+// The default bake coarsens its discontinuity mesh where the light is near linear: far fewer
+// triangles, every kept vertex with the exact value the full mesh has at that place, no
+// T-vertex where regions meet, every surface's area, and the field error within a tenth of
+// the full mesh's (the furnished room, direct light; docs/algorithms.md#coarsening-the-
+// discontinuity-mesh).
+TEST_F(Cli, TheDefaultBakeIsCoarsenedWhereTheLightIsNearLinear) {
+    const std::string db = path("coarse.visdb").string();
+    ASSERT_EQ(run("import --db " + db + " " + sample("furnished_room/furnished_room.obj")).status,
+              0);
+    const Result full = run("bake --bounces 0 --coarsen 0 --name full --db " + db);
+    ASSERT_EQ(full.status, 0) << full.output;
+    EXPECT_EQ(full.output.find("coarsened:"), std::string::npos) << full.output;
+    const Result light = run("bake --bounces 0 --name light --db " + db);
+    ASSERT_EQ(light.status, 0) << light.output;
+    EXPECT_NE(light.output.find("coarsened: "), std::string::npos) << light.output;
+    auto store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadWrite);
+    const abrad::visdb::Bake f = store.load_bake("full"), l = store.load_bake("light");
+    ASSERT_TRUE(l.statistics.dm.has_value());
+    EXPECT_EQ(l.statistics.dm->triangles_meshed, f.mesh.triangles.size());
+    EXPECT_EQ(f.statistics.dm->triangles_meshed, 0u);
+    EXPECT_LT(l.mesh.triangles.size(), f.mesh.triangles.size() * 6 / 10);
+    EXPECT_EQ(l.statistics.triangles, l.mesh.triangles.size());
+    EXPECT_GT(l.statistics.dm->coarsen_change, 0.0);
+    bool recorded = false;
+    for (const auto& [key, value] : l.parameters) recorded |= key == "coarsen" && value == "0.0003";
+    EXPECT_TRUE(recorded);
+
+    // Kept vertices keep the full mesh's exact values (a place may hold several vertices,
+    // one per region meeting there)
+    std::map<std::array<double, 3>, std::vector<glm::vec3>> at;
+    for (std::size_t v = 0; v < f.mesh.positions.size(); ++v) {
+        const glm::dvec3 p = f.mesh.positions[v];
+        at[{p.x, p.y, p.z}].push_back(f.mesh.irradiance[v]);
+    }
+    std::size_t unmatched = 0;
+    for (std::size_t v = 0; v < l.mesh.positions.size(); ++v) {
+        const glm::dvec3 p = l.mesh.positions[v];
+        const auto it = at.find({p.x, p.y, p.z});
+        if (it == at.end() || std::find(it->second.begin(), it->second.end(),
+                                        l.mesh.irradiance[v]) == it->second.end())
+            ++unmatched;
+    }
+    EXPECT_EQ(unmatched, 0u);
+    EXPECT_EQ(abrad::testing::count_t_vertices(l.mesh), 0u);
+    const abrad::visdb::Scene scene = store.load_scene();
+    std::vector<double> area_f(scene.surfaces.size(), 0.0), area_l(scene.surfaces.size(), 0.0);
+    for (std::size_t t = 0; t < f.mesh.triangles.size(); ++t)
+        area_f[f.mesh.triangle_surface[t]] += abrad::testing::triangle_area(f.mesh, t);
+    for (std::size_t t = 0; t < l.mesh.triangles.size(); ++t)
+        area_l[l.mesh.triangle_surface[t]] += abrad::testing::triangle_area(l.mesh, t);
+    for (std::size_t s = 0; s < area_f.size(); ++s)
+        EXPECT_NEAR(area_l[s], area_f[s], 1e-9 * area_f[s]) << scene.surfaces[s].name;
+
+    // Against the exact field
+    const Result e_full = run("field-error --db " + db + " --bake full");
+    const Result e_light = run("field-error --db " + db + " --bake light");
+    ASSERT_EQ(e_full.status, 0) << e_full.output;
+    ASSERT_EQ(e_light.status, 0) << e_light.output;
+    const double ef = std::stod(key_values(e_full.output)["relative_l1"]);
+    const double el = std::stod(key_values(e_light.output)["relative_l1"]);
+    EXPECT_LT(el, 1.1 * ef) << "full " << ef;
+
+    // Out of range, or without a discontinuity mesh to coarsen: exit 2, nothing stored
+    for (const std::string bad : {"--coarsen 0.5", "--coarsen -1", "--dm off --coarsen 0.001"}) {
+        const Result r = run("bake --bounces 0 --name bad " + bad + " --db " + db);
+        EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
+        EXPECT_NE(r.output.find("--coarsen"), std::string::npos) << r.output;
+    }
+    EXPECT_EQ(store.list_bakes().size(), 2u);
 }
 
 // The same bake in two processes exports the same bytes: the mesher numbers a region's

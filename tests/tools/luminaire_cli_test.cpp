@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "../radiosity/mesh_checks.h"
+#include "abrad/visdb/store.h"
 #include "bake_readers.h"
 #include "obj_text.h"
 #include "run_abrad.h"
@@ -304,6 +305,46 @@ TEST(LuminaireCli, SceneMixWithoutReBaking) {
     EXPECT_EQ(malformed.status, 2) << malformed.output;
     EXPECT_NE(malformed.output.find("the factor must be a finite number >= 0"), std::string::npos)
         << malformed.output;
+}
+
+// A bake with light groups and discontinuity meshing (the default, coarsened): every group
+// keeps a shade for each vertex of the coarsened mesh, and the groups add up to the bake.
+TEST(LuminaireCli, LightGroupsFollowTheCoarsenedMesh) {
+    const TempDir dir("luminaire");
+    fs::create_directories(dir / "model");
+    const fs::path floor = dir.write("model/floor.obj", kFloor);
+    dir.write("model/lamp.ies", kIes);
+    const fs::path scene = dir.write(
+        "model/both.toml",
+        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [1, 1, 2]\ngroup = \"office\"\n\n"
+        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [3, 2.5, 2.5]\ngroup = \"corridor\"\n");
+    const std::string db = dir.file("both.visdb");
+    ASSERT_EQ(
+        run_abrad("import " + floor.string() + " --scene " + scene.string() + " --db " + db).status,
+        0);
+    const auto baked = run_abrad("bake --db " + db + " --bounces 0");
+    ASSERT_EQ(baked.status, 0) << baked.output;
+    auto store = abrad::visdb::Store::open(db, abrad::visdb::OpenMode::ReadOnly);
+    const abrad::visdb::Bake b = store.load_bake();
+    ASSERT_TRUE(b.statistics.dm.has_value());
+    EXPECT_GT(b.statistics.dm->triangles_meshed, b.mesh.triangles.size());
+    ASSERT_EQ(b.light_groups.size(), 2u);
+    for (const auto& g : b.light_groups) {
+        ASSERT_EQ(g.irradiance.size(), b.mesh.positions.size()) << g.name;
+        ASSERT_EQ(g.radiosity.size(), b.mesh.positions.size()) << g.name;
+    }
+    for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+        const glm::vec3 sum = b.light_groups[0].irradiance[v] + b.light_groups[1].irradiance[v];
+        EXPECT_NEAR(sum.y, b.mesh.irradiance[v].y, 1e-5 * b.mesh.irradiance[v].y) << v;
+        // Each lamp's own light at this vertex: the groups are not shuffled
+        const glm::dvec3 x = b.mesh.positions[v];
+        for (const auto& [group, lamp] :
+             {std::pair{0, glm::dvec3(1, 1, 2)}, std::pair{1, glm::dvec3(3, 2.5, 2.5)}}) {
+            const double d = glm::length(lamp - x), cos_t = lamp.z / d;
+            const double e = 100.0 * cos_t / (d * d);  // 100 cd in the lower hemisphere
+            EXPECT_NEAR(b.light_groups[group].irradiance[v].y, e, 1e-4 * e) << v;
+        }
+    }
 }
 
 TEST(LuminaireCli, RoomLitByDownlightsImportsBakesExportsAndProbes) {

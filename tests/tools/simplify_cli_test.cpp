@@ -28,7 +28,8 @@ double value_of(const std::string& text, const std::string& key) {
     return std::stod(text.substr(at + key.size() + 3));
 }
 
-// One direct-light bake with discontinuity meshing of the paper room for the whole suite.
+// One direct-light bake with discontinuity meshing of the paper room for the whole suite, as
+// meshed (--coarsen 0: the light meshes are measured against the full discontinuity mesh).
 class SimplifyCli : public ::testing::Test {
   protected:
     static void SetUpTestSuite() {
@@ -36,8 +37,8 @@ class SimplifyCli : public ::testing::Test {
         fs::remove_all(s_dir);
         fs::create_directories(s_dir);
         s_db = (s_dir / "room.visdb").string();
-        const Result baked =
-            abrad::testing::import_and_bake_paper_room(s_db, "--bounces 0 --name direct");
+        const Result baked = abrad::testing::import_and_bake_paper_room(
+            s_db, "--bounces 0 --coarsen 0 --name direct");
         ASSERT_EQ(baked.status, 0) << baked.output;
     }
     static void TearDownTestSuite() { fs::remove_all(s_dir); }

@@ -192,6 +192,7 @@ BenchRun run_one(const BenchScene& s, const std::string& kind, const BakeOptions
     const auto t0 = Clock::now();
     const double cpu0 = cpu_seconds();
     visdb::Bake b = radiosity::bake(s.scene, r.options);
+    if (bench.finish) bench.finish(b, r.options);
     r.seconds_wall = seconds_since(t0);
     r.seconds_cpu = cpu_seconds() - cpu0;
     const auto t1 = Clock::now();

@@ -98,7 +98,18 @@ struct BakeArgs {
     double refine_tolerance = 0.05;
     double refine_min_edge = 0.0;
     double reach = 0.0;
+    /// coarsen_bake's budget (not a radiosity::BakeOptions); empty: coarsen_budget's default
+    std::optional<double> coarsen;
 };
+
+/// The default budget of coarsen_bake.
+inline constexpr double kCoarsenBudget = 0.0003;
+
+/// The bake's coarsening budget: --coarsen when given, else kCoarsenBudget, or 0 with
+/// --dm-angle > 0 (asked for well-shaped triangles, which the decimation does not keep).
+inline double coarsen_budget(const BakeArgs& a) {
+    return a.coarsen.value_or(a.dm_angle > 0.0 ? 0.0 : kCoarsenBudget);
+}
 
 /// Options of the image-making exports and of render.
 struct ViewArgs {
@@ -184,10 +195,27 @@ std::string utc_now();
 visdb::Scene read_models(const ImportArgs& a);
 /// Appends `scene` to the database, created when missing (cmd_import.cpp).
 void import_into(const visdb::Scene& scene, const std::string& db);
-/// Bakes the database's scene, stores and summarises the bake, evaluates its grids into
-/// `<grid_prefix>grid-<name>.csv/.png` (default: beside the database) (cmd_bake.cpp).
+/// Bakes the database's scene (with `args`' --coarsen and --convergence-csv besides `options`),
+/// stores and summarises the bake, evaluates its grids into `<grid_prefix>grid-<name>.csv/.png`
+/// (default: beside the database) (cmd_bake.cpp).
 visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options,
-                      const std::string& convergence_csv = {}, const std::string& grid_prefix = {});
+                      const BakeArgs& args, const std::string& grid_prefix = {});
+
+/// The floor of coarsen_bake's bound at a removed vertex: a fraction of the brightest
+/// irradiance, under which the change allowed is absolute.
+inline constexpr double kCoarsenFloor = 0.01;
+/// coarsen_bake's limit of removed vertices a triangle holds (exporter::SimplifyOptions).
+inline constexpr std::size_t kCoarsenMaxHeld = 16;
+
+/// The discontinuity mesh of `b` made light where its light is near linear
+/// (docs/algorithms.md#coarsening-the-discontinuity-mesh): exporter::simplify with the
+/// refinement's `tolerance` as the bound at every removed vertex (kCoarsenFloor), an
+/// area-weighted `budget` of the bake's mean irradiance, and the kept vertices' exact values;
+/// the light groups' shades follow, and the statistics (dm_triangles_meshed,
+/// dm_coarsen_change, seconds_coarsen) and the parameter `coarsen` say what it did. Nothing
+/// for a budget of 0 or a bake without discontinuity meshing (cmd_bake.cpp).
+void coarsen_bake(visdb::Bake& b, double budget, double tolerance,
+                  const radiosity::ProgressFn& progress = {});
 
 /// The light mesh of `export --simplify E` unless told otherwise: the least-squares refit and
 /// an area-weighted budget of 0.4 % of the bake's mean irradiance, the best found

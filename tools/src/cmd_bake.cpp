@@ -124,11 +124,17 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
     if (n)
         std::cout << "  receiver irradiance (luminance) min " << lo << " / mean " << sum / double(n)
                   << " / max " << hi << " " << b.unit << "\n";
-    if (st.dm)
-        std::cout << "  discontinuity mesh: " << st.dm->triangles_before << " -> " << st.triangles
-                  << " triangles, " << st.dm->segments << " shadow segments, "
-                  << st.dm->refine_points << " refinement points in " << st.dm->rounds
-                  << " rounds, " << st.dm->seconds << " s\n";
+    if (const auto& dm = st.dm) {
+        const bool coarsened = dm->triangles_meshed > 0;
+        std::cout << "  discontinuity mesh: " << dm->triangles_before << " -> "
+                  << (coarsened ? dm->triangles_meshed : st.triangles) << " triangles, "
+                  << dm->segments << " shadow segments, " << dm->refine_points
+                  << " refinement points in " << dm->rounds << " rounds, " << dm->seconds << " s\n";
+        if (coarsened)
+            std::cout << "  coarsened: " << dm->triangles_meshed << " -> " << st.triangles
+                      << " triangles, area-weighted change " << 100.0 * dm->coarsen_change
+                      << "% of the mean irradiance, " << dm->seconds_coarsen << " s\n";
+    }
     // Power is in W for radiometric bakes, lm for photometric ones (lux bakes)
     const char* power = b.unit == "lux" ? " lm" : " W";
     std::cout << "  emitted " << st.emitted_power_w << power << ", reaching receivers "
@@ -220,8 +226,47 @@ void store_bake(visdb::Store& store, visdb::Bake& bake) {
 
 }  // namespace
 
+void coarsen_bake(visdb::Bake& b, double budget, double tolerance,
+                  const radiosity::ProgressFn& progress) {
+    if (!(budget > 0.0) || !b.statistics.dm || b.mesh.triangles.empty()) return;
+    const auto start = std::chrono::steady_clock::now();
+    if (progress) progress("coarsen", 0, 1);
+    const exporter::SimplifyOptions options{.error = std::min(tolerance, 1.0),
+                                            .floor = kCoarsenFloor,
+                                            .refit = false,
+                                            .budget = budget,
+                                            .exact_budget = false,
+                                            .keep_shared = true,
+                                            .max_held = kCoarsenMaxHeld};
+    exporter::SimplifyStats st;
+    std::vector<std::uint32_t> kept;
+    visdb::BakeMesh light = exporter::simplify(b.mesh, options, &st, &kept);
+    for (visdb::LightGroupShades& g : b.light_groups) {
+        std::vector<glm::vec3> h(kept.size()), r(kept.size());
+        for (std::size_t v = 0; v < kept.size(); ++v) {
+            h[v] = g.irradiance[kept[v]];
+            r[v] = g.radiosity[kept[v]];
+        }
+        g.irradiance = std::move(h);
+        g.radiosity = std::move(r);
+    }
+    b.mesh = std::move(light);
+    visdb::DiscontinuityStats& dm = *b.statistics.dm;
+    dm.triangles_meshed = b.statistics.triangles;
+    dm.coarsen_change = st.mean_change;
+    dm.seconds_coarsen = seconds_since(start);
+    b.statistics.triangles = b.mesh.triangles.size();
+    b.statistics.vertices = b.mesh.positions.size();
+    b.statistics.seconds_total += dm.seconds_coarsen;
+    char value[32];
+    std::snprintf(value, sizeof value, "%g", budget);
+    b.parameters.emplace_back("coarsen", value);
+    if (progress) progress("coarsen", 1, 1);
+}
+
 visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in,
-                      const std::string& convergence_csv, const std::string& grid_prefix) {
+                      const BakeArgs& args, const std::string& grid_prefix) {
+    const std::string& convergence_csv = args.convergence_csv;
     visdb::Store store = open_db(db);
     store.check_writable();  // before the work, not after it
     const visdb::Scene scene = store.load_scene();
@@ -233,6 +278,7 @@ visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& optio
     if (!convergence_csv.empty()) options.convergence = &curve;
     try {
         b = radiosity::bake(scene, options, std::ref(progress));
+        coarsen_bake(b, coarsen_budget(args), options.refine_tolerance, std::ref(progress));
     } catch (const radiosity::InputError& e) {
         bad_input(db + ": " + e.what());
     }
@@ -272,8 +318,7 @@ namespace {
 // the lights; rank 0 finishes the bake and stores it in its one transaction. A rank that fails
 // ends the whole job with its exit status (MPI_Abort), naming itself, so that no rank waits
 // for it; when a rank dies, mpirun terminates the others and rank 0 says nothing was stored.
-int bake_as_rank(const std::string& db, radiosity::BakeOptions options,
-                 const std::string& convergence_csv) {
+int bake_as_rank(const std::string& db, radiosity::BakeOptions options, const BakeArgs& args) {
     radiosity::Cluster cluster = radiosity::Cluster::join(
         "abrad bake: rank 0 was terminated by the launcher (another rank failed; mpirun names "
         "it): the bake is not stored, " +
@@ -281,7 +326,7 @@ int bake_as_rank(const std::string& db, radiosity::BakeOptions options,
     options.cluster = &cluster;
     try {
         if (cluster.rank() == 0) {
-            bake_into(db, options, convergence_csv);
+            bake_into(db, options, args);
             std::string sent;
             for (const auto& [stage, bytes] : cluster.sent_by_all())
                 sent += " " + stage + " " + std::to_string(bytes);
@@ -303,9 +348,8 @@ int bake_as_rank(const std::string& db, radiosity::BakeOptions options,
 int run_bake(const Invocation& call) {
     const State& s = state();
     const radiosity::BakeOptions options = to_options(s.bake, call.app);
-    if (radiosity::Cluster::launched_as_ranks())
-        return bake_as_rank(s.db, options, s.bake.convergence_csv);
-    bake_into(s.db, options, s.bake.convergence_csv);
+    if (radiosity::Cluster::launched_as_ranks()) return bake_as_rank(s.db, options, s.bake);
+    bake_into(s.db, options, s.bake);
     return kExitOk;
 }
 

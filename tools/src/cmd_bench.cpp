@@ -151,6 +151,10 @@ int run_bench(const Invocation& call) {
     o.field_error_max = a.field_error_max;
     o.scaling = to_options(a.bake, call.app);
     o.threads = o.scaling.threads;
+    o.finish = [coarsen = coarsen_budget(a.bake)](visdb::Bake& b,
+                                                  const radiosity::BakeOptions& options) {
+        coarsen_bake(b, coarsen, options.refine_tolerance);
+    };
     for (const std::string& s : a.sizes) o.sizes.push_back(parse_count(s));
     o.light_counts = a.light_counts;
     for (double t : a.tradeoff)

@@ -59,7 +59,7 @@ int run_run(const Invocation& call) {
     const StagingFolder guard{stage};
     const fs::path db = stage / (stem + ".visdb");
     import_into(scene, db.string());
-    bake_into(db.string(), options, s.bake.convergence_csv, (stage / (stem + ".")).string());
+    bake_into(db.string(), options, s.bake, (stage / (stem + ".")).string());
     for (const char* format : {"ply", "obj"}) {
         ExportArgs e;
         e.db = db.string();

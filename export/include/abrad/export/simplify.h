@@ -4,7 +4,9 @@
 // removed vertex (docs/algorithms.md#simplification). OpenMesh stays inside simplify.cpp.
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "abrad/visdb/model.h"
 
@@ -27,6 +29,21 @@ struct SimplifyOptions {
     /// fraction of the bake's area-weighted mean irradiance (0: none; then `error` alone
     /// limits it). The collapses that add the least go first.
     double budget = 0.0;
+    /// With a budget, the collapse that passes it is found only once made. True: the
+    /// decimation is redone (it is deterministic) and stopped before that collapse, so that the
+    /// budget bounds the change. False: that last collapse is kept (the change may pass the
+    /// budget by one collapse's share), in half the time.
+    bool exact_budget = true;
+    /// Keep every vertex at the position of another vertex of the mesh (within 1e-7 of the
+    /// mesh's size: where regions or surfaces meet), so that a mesh without T-vertices, such as
+    /// a bake's discontinuity mesh, stays without them. False: such a vertex may go where its own
+    /// boundary runs straight through it, though its neighbour keeps its twin.
+    bool keep_shared = false;
+    /// A collapse whose new triangles would hold more than this many removed vertices of the
+    /// bake is not made (0: no limit). Rating a collapse visits them all, so on a finely and
+    /// evenly meshed plane (a quality-refined discontinuity mesh) the decimation's time grows
+    /// with their count; the limit bounds it, and each triangle's size against the bake's.
+    std::size_t max_held = 0;
 };
 
 /// What a simplification did.
@@ -58,8 +75,11 @@ std::string to_string(const SimplifyStats& stats);
 /// (bake vertices are not shared across normals or surfaces). Faces that do not form a
 /// manifold are kept unchanged. Throws ExportError for a mesh whose arrays disagree in
 /// length, whose indices are out of range, or that has no irradiance, and for options
-/// outside their ranges.
+/// outside their ranges. With `kept`, also the index in `mesh` of every vertex of the result
+/// (the values of other per-vertex arrays, such as light groups' shades, carry over through
+/// it unless `refit` is set).
 visdb::BakeMesh simplify(const visdb::BakeMesh& mesh, const SimplifyOptions& options,
-                         SimplifyStats* stats = nullptr);
+                         SimplifyStats* stats = nullptr,
+                         std::vector<std::uint32_t>* kept = nullptr);
 
 }  // namespace abrad::exporter

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,9 @@ struct BenchOptions {
     /// The mesh trade-off on every grid scene: DM at these refine tolerances against uniform
     /// meshes of the same size (empty: none)
     std::vector<double> tradeoff_tolerances;
+    /// What abrad bake does to a bake after radiosity::bake (its --coarsen), timed with the
+    /// bake: set by the command line, which holds the export library (empty: nothing)
+    std::function<void(visdb::Bake&, const radiosity::BakeOptions&)> finish;
 };
 
 /// One bake of the benchmark.

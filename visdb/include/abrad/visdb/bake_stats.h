@@ -93,6 +93,12 @@ struct DiscontinuityStats {
     std::uint64_t exact_evaluations = 0;    ///< exact irradiance evaluations (cached by point)
     double seconds_mesh = 0.0;              ///< wall seconds in the mesher
     double seconds = 0.0;                   ///< wall seconds of the whole stage
+    /// The coarsening after the bake (abrad bake --coarsen): the triangles meshed before it (0
+    /// when it did not run), the area-weighted mean change of irradiance it made (a fraction
+    /// of the mean), and its wall seconds
+    std::uint64_t triangles_meshed = 0;
+    double coarsen_change = 0.0;
+    double seconds_coarsen = 0.0;
 };
 
 /// Interreflection (progressive refinement on elements).
@@ -181,6 +187,9 @@ void dm_keys(D& d, F& f) {
     f("seconds_shadow_edges_cpu", d.shadow.seconds_cpu);
     f("seconds_mesh", d.seconds_mesh);
     f("seconds_dm", d.seconds);
+    f("dm_triangles_meshed", d.triangles_meshed);
+    f("dm_coarsen_change", d.coarsen_change);
+    f("seconds_coarsen", d.seconds_coarsen);
 }
 template <class I, class F>
 void indirect_keys(I& i, F& f) {
