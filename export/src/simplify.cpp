@@ -502,16 +502,20 @@ void build(const visdb::BakeMesh& in, const glm::dvec3& origin, Built& out) {
 // (SimplifyOptions::keep_shared): twins where regions meet, also those a mesher's rounding
 // left a few ulps apart. Found through a hash grid of cells 4 × `tolerance` wide.
 void lock_shared(const visdb::BakeMesh& in, double tolerance, Built& b) {
-    const double cell = 4.0 * tolerance;
+    const double cell = std::max(4.0 * tolerance, std::numeric_limits<double>::min());
     using Key = std::array<std::int64_t, 3>;
+    // (clamped: a tiny model far from the origin must not overflow the cell numbers)
+    const auto cell_of = [&](double x) {
+        return static_cast<std::int64_t>(std::clamp(std::floor(x / cell), -4e18, 4e18));
+    };
     const auto key_of = [&](const glm::dvec3& p) {
-        return Key{static_cast<std::int64_t>(std::floor(p.x / cell)),
-                   static_cast<std::int64_t>(std::floor(p.y / cell)),
-                   static_cast<std::int64_t>(std::floor(p.z / cell))};
+        return Key{cell_of(p.x), cell_of(p.y), cell_of(p.z)};
     };
     struct KeyHash {
         std::size_t operator()(const Key& k) const {
-            return std::hash<std::int64_t>()(k[0] * 73856093 ^ k[1] * 19349663 ^ k[2] * 83492791);
+            const auto u = [](std::int64_t x) { return static_cast<std::uint64_t>(x); };
+            return std::hash<std::uint64_t>()(u(k[0]) * 73856093u ^ u(k[1]) * 19349663u ^
+                                              u(k[2]) * 83492791u);
         }
     };
     std::unordered_map<Key, std::vector<std::uint32_t>, KeyHash> grid;
