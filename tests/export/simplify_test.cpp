@@ -233,10 +233,12 @@ TEST(Simplify, RoughFieldKeepsItsVerticesWithinTheBound) {
 
 // Two surfaces side by side with vertices of their own: their shared border stays, and each
 // face keeps its surface.
-TEST(Simplify, KeepsSurfacesApart) {
-    const Field flat = [](double, double) { return 5.0; };
-    visdb::BakeMesh a = grid(6, flat, 0);
-    const visdb::BakeMesh b = grid(6, flat, 1);
+// Two n × n unit squares side by side, [0, 1]² of surface 0 and [1, 2] × [0, 1] of surface 1,
+// each with vertices of its own along x = 1, with the field h at every vertex's position.
+visdb::BakeMesh side_by_side(int n, const Field& h) {
+    visdb::BakeMesh a = grid(n, h, 0);
+    const visdb::BakeMesh b = grid(
+        n, [&](double x, double y) { return h(x + 1.0, y); }, 1);
     const auto offset = static_cast<std::uint32_t>(a.positions.size());
     for (std::size_t v = 0; v < b.positions.size(); ++v) {
         a.positions.push_back(b.positions[v] + glm::dvec3(1.0, 0.0, 0.0));
@@ -248,6 +250,11 @@ TEST(Simplify, KeepsSurfacesApart) {
         a.triangles.push_back(b.triangles[t] + glm::u32vec3(offset));
         a.triangle_surface.push_back(1);
     }
+    return a;
+}
+
+TEST(Simplify, KeepsSurfacesApart) {
+    const visdb::BakeMesh a = side_by_side(6, [](double, double) { return 5.0; });
     const visdb::BakeMesh out = simplify(a, {.error = 0.01});
     EXPECT_LE(out.triangles.size(), 8u);
     std::set<std::uint32_t> surfaces(out.triangle_surface.begin(), out.triangle_surface.end());
@@ -365,25 +372,7 @@ TEST(Simplify, BudgetBoundsTheAreaWeightedChange) {
 // both have (their shared edge, where the surfaces meet) all stay, on both sides, though
 // their field is linear and the edge straight; without it the edge keeps its ends only.
 TEST(Simplify, KeptNamesTheInputVertexAndSharedVerticesStay) {
-    const Field plane = [](double x, double y) { return 1.0 + x + 2.0 * y; };
-    visdb::BakeMesh a = grid(6, plane, 0);
-    const visdb::BakeMesh b = grid(6, plane, 1);
-    const auto offset = static_cast<std::uint32_t>(a.positions.size());
-    for (std::size_t v = 0; v < b.positions.size(); ++v) {
-        a.positions.push_back(b.positions[v] + glm::dvec3(1.0, 0.0, 0.0));
-        a.normals.push_back(b.normals[v]);
-        a.irradiance.push_back(a.irradiance[v]);  // the field of the first square: still equal
-        a.radiosity.push_back(a.radiosity[v]);    // where the two meet at x = 1 (both linear)
-    }
-    for (std::size_t v = offset; v < a.positions.size(); ++v) {
-        const auto h = static_cast<float>(plane(a.positions[v].x, a.positions[v].y));
-        a.irradiance[v] = glm::vec3(h);
-        a.radiosity[v] = glm::vec3(0.5f * h);
-    }
-    for (std::size_t t = 0; t < b.triangles.size(); ++t) {
-        a.triangles.push_back(b.triangles[t] + glm::u32vec3(offset));
-        a.triangle_surface.push_back(1);
-    }
+    const visdb::BakeMesh a = side_by_side(6, [](double x, double y) { return 1.0 + x + 2.0 * y; });
     const auto on_shared_edge = [](const visdb::BakeMesh& m) {
         std::size_t n = 0;
         for (const glm::dvec3& p : m.positions) n += p.x == 1.0;
