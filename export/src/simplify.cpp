@@ -34,13 +34,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <memory>
-#include <numeric>
 #include <optional>
-#include <tuple>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -724,15 +722,6 @@ struct Decimation {
 void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
               std::optional<std::size_t> limit, Decimation& d) {
     build(in, visdb::local_origin(in.positions), d.b);
-    if (options.keep_shared) {
-        glm::dvec3 lo(std::numeric_limits<double>::max()),
-            hi(std::numeric_limits<double>::lowest());
-        for (const glm::dvec3& p : in.positions) {
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
-        lock_shared(in, in.positions.empty() ? 0.0 : kStraight * glm::length(hi - lo), d.b);
-    }
     Mesh& m = d.b.mesh;
     Context& context = d.context;
 
@@ -783,6 +772,8 @@ void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
     const double size = m.n_vertices() ? (hi - lo).norm() : 1.0;
     decimater.module(quadric).set_max_err(1e-12 * size * size * size * size, true);
     context.straight = kStraight * size;
+    // Twins where regions meet: as near as an outline must be to run straight
+    if (options.keep_shared) lock_shared(in, context.straight, d.b);
     decimater.module(bound).set_context(&context);
     if (!decimater.initialize()) throw ExportError("simplify: OpenMesh's decimater did not start");
     BudgetObserver observer(decimater.module(bound), context.budget);
