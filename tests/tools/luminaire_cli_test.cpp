@@ -41,6 +41,12 @@ const char* const kFloor = "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nf 1 2 3 4\n";
 const char* const kIes =
     "IESNA:LM-63-2002\nTILT=NONE\n1 1000 1 3 1 1 2 0 0 0\n1 1 10\n0 45 90\n0\n100 100 100\n";
 
+// Two light groups over the floor, one lamp each (kIes beside the scene file)
+const char* const kOffice =
+    "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [1, 1, 2]\ngroup = \"office\"\n";
+const char* const kCorridor =
+    "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [3, 2.5, 2.5]\ngroup = \"corridor\"\n";
+
 TEST(LuminaireCli, ImportReportsStoresAndBakes) {
     const TempDir dir("luminaire");
     fs::create_directories(dir / "model");
@@ -240,12 +246,8 @@ TEST(LuminaireCli, SceneMixWithoutReBaking) {
     fs::create_directories(dir / "model");
     const fs::path floor = dir.write("model/floor.obj", kFloor);
     dir.write("model/lamp.ies", kIes);
-    const std::string office =
-        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [1, 1, 2]\ngroup = \"office\"\n";
-    const std::string corridor =
-        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [3, 2.5, 2.5]\ngroup = \"corridor\"\n";
-    const fs::path both = dir.write("model/both.toml", office + "\n" + corridor);
-    const fs::path alone = dir.write("model/office.toml", office);
+    const fs::path both = dir.write("model/both.toml", std::string(kOffice) + "\n" + kCorridor);
+    const fs::path alone = dir.write("model/office.toml", kOffice);
     const std::string db = dir.file("both.visdb"), db_office = dir.file("office.visdb");
     for (const auto& [scene, file] : {std::pair{both, db}, std::pair{alone, db_office}}) {
         ASSERT_EQ(
@@ -314,10 +316,7 @@ TEST(LuminaireCli, LightGroupsFollowTheCoarsenedMesh) {
     fs::create_directories(dir / "model");
     const fs::path floor = dir.write("model/floor.obj", kFloor);
     dir.write("model/lamp.ies", kIes);
-    const fs::path scene = dir.write(
-        "model/both.toml",
-        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [1, 1, 2]\ngroup = \"office\"\n\n"
-        "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [3, 2.5, 2.5]\ngroup = \"corridor\"\n");
+    const fs::path scene = dir.write("model/both.toml", std::string(kOffice) + "\n" + kCorridor);
     const std::string db = dir.file("both.visdb");
     ASSERT_EQ(
         run_abrad("import " + floor.string() + " --scene " + scene.string() + " --db " + db).status,
