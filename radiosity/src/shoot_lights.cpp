@@ -86,6 +86,18 @@ bool unseen_from_centroid(const Patch& light, const Patch& r) {
     return false;
 }
 
+// True when some of light l may reach the front of receiver r: part of r in front of the
+// light's plane and part of the light in front of r's.
+bool may_light(const Patch& light, const Patch& r) {
+    const glm::dvec3 ln = unit_normal(light), rn = unit_normal(r);
+    bool in_front = false, facing = false;
+    for (int k = 0; k < 3; ++k) {
+        in_front |= glm::dot(r.p[k] - light.p[0], ln) > 0.0;
+        facing |= glm::dot(light.p[k] - r.p[0], rn) > 0.0;
+    }
+    return in_front && facing;
+}
+
 // A shadow segment of light triangle l (kNoLight: a luminaire) on receiver triangle j, with
 // what it may change there (W/m², means over RGB): the light's largest unoccluded irradiance
 // on the receiver and the segment (the most the light can change anywhere on it), and its
@@ -103,6 +115,7 @@ struct LitSegment {
 struct OneLight {
     std::vector<std::uint32_t> near;           // receivers: in reach (cull.h) or in reached regions
     std::vector<std::uint32_t> near_vertices;  // their vertices
+    std::vector<std::uint32_t> corner_lit;     // lit from a corner, not from the centroid
     std::vector<visdb::Rgb> triangle;          // patch irradiance, all triangles
     std::vector<visdb::Rgb> vertex;            // exact irradiance (exact shading without DM)
     std::vector<LitSegment> segments;
@@ -223,7 +236,6 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
     for (const std::uint32_t j : receivers)
         if (shot.form_factor[j] > 0.0 || unseen_from_centroid(light, g.patches[j]))
             reached[regions.of_triangle[j]] = 1;
-    const glm::dvec3 normal = unit_normal(light);
     std::mutex accumulate;
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, receivers.size(), 32), [&](const auto& range) {
@@ -238,13 +250,8 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
                     !reached[regions.of_triangle[j]])
                     continue;
                 const Patch& r = g.patches[j];
+                if (!may_light(light, r)) continue;
                 const glm::dvec3 rn = unit_normal(r);
-                bool in_front = false, facing = false;
-                for (int k = 0; k < 3; ++k) {
-                    in_front |= glm::dot(r.p[k] - light.p[0], normal) > 0.0;
-                    facing |= glm::dot(light.p[k] - r.p[0], rn) > 0.0;
-                }
-                if (!in_front || !facing) continue;
                 const std::size_t n_listed = edge_occluders(g, bvh, l, j, shot, ids);
                 if (ids.empty()) continue;
                 ++counts.receivers;
@@ -304,10 +311,12 @@ ShotContext shot_context(const BakeGeometry& g, const Regions& regions,
 // light, or one the hemicube cannot see the front of though part of the light is in front of
 // it: unseen_from_centroid), ascending, the light excluded. A triangle of a reached region that
 // the walk culled (behind closed pixels as seen from the centroid) is a receiver too: part of
-// the light may still reach it past the occluders that hid it (penumbra).
+// the light may still reach it past the occluders that hid it (penumbra). So are the
+// triangles of the regions of `corner_lit` (lit_from_corners).
 std::vector<std::uint32_t> reached_triangles(const BakeGeometry& g, const Regions& regions,
                                              const ShotContext& c, std::uint32_t l,
-                                             const ShootResult& shot) {
+                                             const ShootResult& shot,
+                                             std::span<const std::uint32_t> corner_lit) {
     const Patch& light = g.patches[l];
     const glm::dvec3 normal = unit_normal(light);
     std::vector<std::uint32_t> reached;
@@ -321,6 +330,7 @@ std::vector<std::uint32_t> reached_triangles(const BakeGeometry& g, const Region
         }
         if (lit) reached.push_back(regions.of_triangle[id]);
     }
+    for (const std::uint32_t id : corner_lit) reached.push_back(regions.of_triangle[id]);
     std::sort(reached.begin(), reached.end());
     reached.erase(std::unique(reached.begin(), reached.end()), reached.end());
     std::vector<std::uint32_t> out;
@@ -328,6 +338,39 @@ std::vector<std::uint32_t> reached_triangles(const BakeGeometry& g, const Region
         for (std::uint32_t k = c.region_start[r]; k < c.region_start[r + 1]; ++k)
             if (c.region_triangles[k] != l) out.push_back(c.region_triangles[k]);
     std::sort(out.begin(), out.end());
+    return out;
+}
+
+constexpr double kCornerInset = 0.01;  // of the way from a light's corner to its centroid
+
+// The triangles that hemicubes at light l's corners (pulled 1 % toward its centroid) give
+// light and that its centroid's `shot` does not, ascending: receivers the light reaches only
+// from part of itself, which the centroid's hemicube cannot tell from those it does not reach.
+// A face the centroid sees only behind an occluder (lit through a gap by the light's far end),
+// or smaller than a sample from the centroid, would otherwise get none of the light's exact
+// irradiance: its region would not ask the light. Such regions ask it, but get no shadow edges
+// from it (the refinement follows its light there): they are faces of a few square
+// centimetres or in a penumbra, and their edges cost more mesh than they buy.
+std::vector<std::uint32_t> lit_from_corners(const BakeGeometry& g, const Bvh& bvh,
+                                            const ShotContext& context, const Hemicube& hemicube,
+                                            std::uint32_t l, const ShootResult& shot,
+                                            const BakeOptions& options) {
+    const Patch& light = g.patches[l];
+    const glm::dvec3 c = centroid(light), n = unit_normal(light);
+    ShootOptions so{.method = options.method, .subpixels = options.subpixels, .occlusion = false};
+    so.exclude = l;
+    so.bvh = &bvh;
+    so.sparse = true;
+    so.occluders_first = context.occluders;
+    std::vector<std::uint32_t> out;
+    for (const glm::dvec3& p : light.p) {
+        const ShootResult corner =
+            shoot(ShooterFrame::at(p + kCornerInset * (c - p), n), g.patches, hemicube, so);
+        for (const PatchFormFactor& hit : corner.hits)
+            if (!(shot.form_factor[hit.patch] > 0.0)) out.push_back(hit.patch);
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
 }
 
@@ -361,7 +404,11 @@ OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh
     }
     const ShooterFrame from = frame_of(g.patches[l]);
     const ShootResult shot = shoot(from, g.patches, hemicube, so);
-    if (walk) out.near = reached_triangles(g, regions, context, l, shot);
+    if (walk) {
+        if (options.dm)
+            out.corner_lit = lit_from_corners(g, bvh, context, hemicube, l, shot, options);
+        out.near = reached_triangles(g, regions, context, l, shot, out.corner_lit);
+    }
     out.shoot.seconds_cpu = seconds_since(t0);
 
     out.triangle.assign(g.patches.size(), visdb::Rgb(0.0));
@@ -842,6 +889,7 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
                 if (visdb::any_positive(one.triangle[j]) ||
                     (light && unseen_from_centroid(*light, g.patches[j])))
                     sources_of.push_back({j, source});
+        for (const std::uint32_t j : one.corner_lit) sources_of.push_back({j, source});
         sums.stats.shoot += one.shoot;
         sums.stats.exact += one.exact;
         sums.stats.shadow += one.shadow;

@@ -81,9 +81,10 @@ struct LightShots {
     std::vector<visdb::Rgb> triangle_irradiance;       ///< patch irradiance per triangle (hemicube)
     std::vector<visdb::Rgb> vertex_irradiance;         ///< exact, per vertex (exact shading, no DM)
     std::vector<std::vector<ShadowSegment>> segments;  ///< per triangle (DM only)
-    /// Per triangle, the lights whose hemicube gave it some light, ascending (DM only): the
-    /// exact irradiance on a region asks only these lights (a light that reaches no triangle of
-    /// a region through any hemicube sample adds nothing there).
+    /// Per triangle, the lights whose hemicubes (at the centroid, or at a corner) gave it some
+    /// light, ascending (DM only): the exact irradiance on a region asks only these lights (a
+    /// light that reaches no triangle of a region through any hemicube sample adds nothing
+    /// there).
     std::vector<std::vector<std::uint32_t>> lights_of_triangle;
     /// Per triangle, the luminaires (indices into BakeGeometry::luminaires) whose hemicubes
     /// gave it some light, ascending (DM only), for the same purpose.

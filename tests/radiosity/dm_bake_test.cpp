@@ -109,6 +109,44 @@ TEST(DmBake, EveryVertexGetsTheExactDirectLight) {
     EXPECT_GT(lit, b.mesh.positions.size() / 2);
 }
 
+// A face that the light's centroid sees only behind an occluder, lit through the gap past the
+// occluder's edge by the far part of the light (penumbra alone): a tile on the floor under
+// a plate that ends between it and the light. Neither light triangle's centroid hemicube
+// reaches the tile, so its region must learn of the light from the hemicubes at the light's
+// corners; it was black.
+TEST(DmBake, FacesLitFromPartOfTheLightGetItsExactLight) {
+    visdb::Scene scene = abrad::testing::floor_and_light(4);
+    // The plate at half height over x < 0: from a light point at x = a, the floor point x = r
+    // is seen past its edge when a > -r. The tile, x in [-0.4, -0.25], is hidden from both
+    // triangles' centroids (a = ±1/6) and seen from the corners at a = 0.5.
+    scene.surfaces.push_back(abrad::testing::grid("plate", 2, -1, 0, -1, 1, 0.75, 2, true));
+    scene.surfaces.push_back(
+        abrad::testing::grid("tile", 0, -0.4, -0.25, -0.1, 0.1, 0.01, 1, true));
+    const std::uint32_t tile = 3;
+    BakeOptions o;
+    o.bounces = 0;
+    const visdb::Bake b = bake(scene, o);
+    const DirectField field(scene);
+    double brightest = 0.0;
+    std::size_t vertices = 0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        if (b.mesh.triangle_surface[t] != tile) continue;
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = b.mesh.triangles[t][k];
+            const glm::dvec3 x = b.mesh.positions[v];
+            const visdb::Rgb exact = field.irradiance(x, glm::dvec3(0, 0, 1));
+            brightest = std::max(brightest, exact.y);
+            ++vertices;
+            for (int c = 0; c < 3; ++c)
+                EXPECT_NEAR(b.mesh.irradiance[v][c], exact[c], 1e-5 * (1.0 + exact[c]))
+                    << "tile vertex at " << x.x << ", " << x.y;
+        }
+    }
+    ASSERT_GE(vertices, 6u);
+    // The tile is well lit where it sees most of the light past the plate's edge
+    EXPECT_GT(brightest, 0.3);
+}
+
 // The field error's reference is exact direct light: the bakes are direct light too.
 double field_error_of(const visdb::Scene& scene, const BakeOptions& options,
                       std::size_t* triangles = nullptr) {
