@@ -105,13 +105,27 @@ struct SmallElements {
 // form of the element's triangles' unoccluded view from the shooting point is replaced by the
 // closed form (as shade.cpp's patches); with the shooter's area (0: a point), the element's
 // form factor to the shooter, f × area / element area, is at most 1.
+// What the bounds take off goes to the other elements of the row in proportion to their form
+// factors (each still within its bound): a bound corrects where the point's samples put the
+// light, not how much of it the shooter's hemisphere sends to surfaces. One point standing
+// for a group of elements (a shooter's block, or small faces grouped in a cube) sees its
+// nearest neighbours under form factors far above the group's mean, and counting what the
+// bound removed as escaped lost 1.4 % of the FZK-Haus's light (918 lm escaped, 698 lm now).
 void fold_row(std::span<const PatchFormFactor> element_ff,
               const std::vector<IndirectSolution::Element>& elements, const ShooterFrame& from,
               double shooter_area, const SmallElements* small,
               const std::vector<glm::dvec3>& region_normal, Row& row) {
     row.entries.clear();
     row.front = row.total = 0.0;
-    for (const auto [e, f_hemicube] : element_ff) {
+    std::vector<double> ff(element_ff.size());
+    std::vector<char> bounded(element_ff.size(), 0);
+    double removed = 0.0, free_sum = 0.0;
+    const auto cap = [&](std::uint32_t e) {
+        return shooter_area > 0.0 ? elements[e].area / shooter_area
+                                  : std::numeric_limits<double>::infinity();
+    };
+    for (std::size_t k = 0; k < element_ff.size(); ++k) {
+        const auto [e, f_hemicube] = element_ff[k];
         double f = f_hemicube;
         if (small && !small->triangles[e].empty()) {
             double f_max = 0.0;
@@ -119,7 +133,20 @@ void fold_row(std::span<const PatchFormFactor> element_ff,
                 f_max += unoccluded_triangle_form_factor(from.origin, from.n, small->patches[t].p);
             if (f > kUndersampledFactor * f_max) f = f_max;
         }
-        if (shooter_area > 0.0) f = std::min(f, elements[e].area / shooter_area);
+        f = std::min(f, cap(e));
+        ff[k] = f;
+        bounded[k] = f < f_hemicube;
+        removed += f_hemicube - f;
+        if (!bounded[k]) free_sum += f;
+    }
+    if (removed > 0.0 && free_sum > 0.0) {
+        const double scale = (free_sum + removed) / free_sum;
+        for (std::size_t k = 0; k < ff.size(); ++k)
+            if (!bounded[k]) ff[k] = std::min(ff[k] * scale, cap(element_ff[k].patch));
+    }
+    for (std::size_t k = 0; k < element_ff.size(); ++k) {
+        const std::uint32_t e = element_ff[k].patch;
+        const double f = ff[k];
         // The shooter lights the element's front when it lies in front of the element's plane
         const bool front =
             glm::dot(from.origin - elements[e].centroid, region_normal[elements[e].region]) > 0.0;
