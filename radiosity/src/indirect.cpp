@@ -22,6 +22,7 @@
 
 #include "abrad/check.h"
 #include "abrad/radiosity/cluster.h"
+#include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/radiosity/hemicube.h"
 #include "abrad/radiosity/point_source.h"
@@ -537,7 +538,7 @@ class Solver {
                 key_shooter.try_emplace(key, static_cast<std::uint32_t>(key_shooter.size()));
             m_shooter_of[e] = it->second;
         }
-        const std::size_t ns = split_near_blocks(key_shooter);
+        const std::size_t ns = split_unseen_members(key_shooter, split_near_blocks(key_shooter));
         // Members of each shooter (CSR), ascending
         m_member_start.assign(ns + 1, 0);
         for (const std::uint32_t s : m_shooter_of) ++m_member_start[s + 1];
@@ -546,34 +547,107 @@ class Solver {
         std::vector<std::uint32_t> fill(m_member_start.begin(), m_member_start.end() - 1);
         for (std::size_t e = 0; e < m_ne; ++e)
             m_members[fill[m_shooter_of[e]]++] = static_cast<std::uint32_t>(e);
-        // Each shooter's point: its area centroid when that lies on one of its elements of a
-        // block (the cell holding it is a member), else the member centroid nearest to it;
-        // the normal is that member's region's
         m_shooters.resize(ns);
-        for (std::size_t s = 0; s < ns; ++s) {
-            const auto members = members_of(static_cast<std::uint32_t>(s));
+        for (std::size_t s = 0; s < ns; ++s)
+            m_shooters[s] =
+                point_of(members_of(static_cast<std::uint32_t>(s)), static_cast<std::uint32_t>(s));
+        m_sol.shooters = ns;
+    }
+
+    // Shooter s's point: its members' area centroid when that lies on one of its elements of
+    // a block (the cell holding it is a member), else the member centroid nearest to it; the
+    // normal is that member's region's
+    ShooterFrame point_of(std::span<const std::uint32_t> members, std::uint32_t s) const {
+        const std::uint32_t nearest = s < m_point.size() && m_point[s] != kNoPatch
+                                          ? m_point[s]
+                                          : nearest_to_centroid(members);
+        const std::uint32_t r = m_sol.elements[nearest].region;
+        glm::dvec3 point = m_sol.elements[nearest].centroid;
+        const bool planar = std::all_of(members.begin(), members.end(), [&](std::uint32_t e) {
+            return m_sol.elements[e].region == r;
+        });
+        if (planar && members.size() > 1) {
             glm::dvec3 c(0.0);
             double a = 0.0;
             for (const std::uint32_t e : members) {
                 c += m_sol.elements[e].area * m_sol.elements[e].centroid;
                 a += m_sol.elements[e].area;
             }
-            c = a > 0.0 ? c / a : m_sol.elements[members[0]].centroid;
-            std::uint32_t nearest = members[0];
-            for (const std::uint32_t e : members)
-                if (glm::distance(m_sol.elements[e].centroid, c) <
-                    glm::distance(m_sol.elements[nearest].centroid, c))
-                    nearest = e;
-            const std::uint32_t r = m_sol.elements[nearest].region;
-            glm::dvec3 point = m_sol.elements[nearest].centroid;
-            const bool planar = std::all_of(members.begin(), members.end(), [&](std::uint32_t e) {
-                return m_sol.elements[e].region == r;
-            });
-            if (planar && members.size() > 1 && on_member(r, c, static_cast<std::uint32_t>(s)))
-                point = c;
-            m_shooters[s] = ShooterFrame::at(point, m_region_normal[r]);
+            if (a > 0.0 && on_member(r, c / a, s)) point = c / a;
         }
-        m_sol.shooters = ns;
+        return ShooterFrame::at(point, m_region_normal[r]);
+    }
+
+    // A cube of small faces shoots from one member's point, and a member that point cannot
+    // see (the outer half of a window frame behind the glass, a fitting beyond a partition)
+    // had its light shot from the wrong side of what stands between: on the FZK-Haus that was
+    // 1.6 % of the living room's indirect light, and 83 lm sent out of the house. A member is
+    // seen when the segment from the point to its centroid (both lifted off their faces by a
+    // thousandth of a cell) crosses nothing. The members the point does not see form a cube
+    // of their own, split again the same way, until every member is seen from its cube's
+    // point. Returns the number of shooters after the split.
+    std::size_t split_unseen_members(
+        const std::map<std::array<std::int64_t, 5>, std::uint32_t>& key_shooter, std::size_t ns) {
+        std::vector<std::vector<std::uint32_t>> members(ns);
+        for (std::size_t e = 0; e < m_ne; ++e) members[m_shooter_of[e]].push_back(std::uint32_t(e));
+        const double lift = 1e-3 * m_options.element_size;
+        const auto lifted = [&](std::uint32_t e) {
+            const auto& el = m_sol.elements[e];
+            return el.centroid + lift * m_region_normal[el.region];
+        };
+        std::vector<std::uint32_t> cubes;
+        for (const auto& [key, shooter] : key_shooter)
+            if (key[0] == 1 && members[shooter].size() > 1) cubes.push_back(shooter);
+        // Per cube, the point of its first group (which keeps the cube's shooter), and the
+        // other groups (each shoots from its first element)
+        std::vector<std::uint32_t> first_point(cubes.size());
+        std::vector<std::vector<std::vector<std::uint32_t>>> more(cubes.size());
+        tbb::parallel_for(std::size_t{0}, cubes.size(), [&](std::size_t k) {
+            std::vector<std::uint32_t> left = members[cubes[k]], next;
+            for (bool first = true; !left.empty(); first = false) {
+                const std::uint32_t p = nearest_to_centroid(left);
+                const glm::dvec3 eye = lifted(p);
+                std::vector<std::uint32_t> seen{p};
+                next.clear();
+                for (const std::uint32_t e : left)
+                    if (e != p)
+                        (transmittance(m_in.patches, *m_bvh, lifted(e), eye) >= 1.0 ? seen : next)
+                            .push_back(e);
+                if (first)
+                    first_point[k] = p;
+                else
+                    more[k].push_back(std::move(seen));
+                left.swap(next);
+            }
+        });
+        m_point.assign(ns, kNoPatch);
+        for (std::size_t k = 0; k < cubes.size(); ++k) {
+            m_point[cubes[k]] = first_point[k];
+            for (const auto& group : more[k]) {
+                for (const std::uint32_t e : group)
+                    m_shooter_of[e] = static_cast<std::uint32_t>(ns);
+                m_point.push_back(group.front());
+                ++ns;
+            }
+        }
+        return ns;
+    }
+
+    // The member whose centroid is nearest to the members' area centroid
+    std::uint32_t nearest_to_centroid(std::span<const std::uint32_t> members) const {
+        glm::dvec3 c(0.0);
+        double a = 0.0;
+        for (const std::uint32_t e : members) {
+            c += m_sol.elements[e].area * m_sol.elements[e].centroid;
+            a += m_sol.elements[e].area;
+        }
+        c = a > 0.0 ? c / a : m_sol.elements[members[0]].centroid;
+        std::uint32_t nearest = members[0];
+        for (const std::uint32_t e : members)
+            if (glm::distance(m_sol.elements[e].centroid, c) <
+                glm::distance(m_sol.elements[nearest].centroid, c))
+                nearest = e;
+        return nearest;
     }
 
     // A block shoots from one point, which misplaces the light of its cells by up to half its
@@ -988,6 +1062,9 @@ class Solver {
     ShootOptions m_shoot;
     const std::vector<glm::dvec3> m_region_normal;
     std::unique_ptr<Bvh> m_bvh;
+    // Per shooter, the member it shoots from when split_unseen_members chose it (else
+    // kNoPatch, or past the end: point_of chooses)
+    std::vector<std::uint32_t> m_point;
     std::vector<std::uint32_t> m_occluders;  // large_occluders: rasterized first by each row
     std::string m_label;
     IndirectSolution m_sol;

@@ -242,6 +242,41 @@ TEST(Interreflection, SmallFacesGroupedInAClosedRoomLoseNoLight) {
     expect_energy_balance(b);
 }
 
+// Small faces are grouped in cubes that shoot from one member's point, and a member that
+// point cannot see must not have its light shot from there: a partition closes a dark
+// compartment off the lit room, and a small face on each side of it lies in one cube (the
+// dark one the larger, so that the cube's point is on it). Nothing may reach the compartment.
+TEST(Interreflection, SmallFacesAreNotShotFromBehindAWall) {
+    visdb::Scene scene = room({0.5, 0.5, 0.5, 0.0});
+    scene.materials.push_back({"grey", visdb::Rgb(0.5), {0, 0, 0}, 1.0});
+    const auto grey = static_cast<std::uint32_t>(scene.materials.size() - 1);
+    const glm::dvec3 lit(0, 0, 1.5), dark(1.8, 0, 1.5);
+    scene.surfaces.push_back(
+        facing("partition", grey, {1.45, -2, 0}, {0, 4, 0}, {0, 0, 3}, 4, lit));
+    scene.surfaces.push_back(
+        facing("partition, dark side", grey, {1.55, -2, 0}, {0, 4, 0}, {0, 0, 3}, 4, dark));
+    scene.surfaces.push_back(
+        facing("lit face", grey, {1.1, 0.1, 1}, {0.2, 0, 0}, {0, 0.2, 0}, 1, {1.2, 0.2, 2}));
+    scene.surfaces.push_back(
+        facing("dark face", grey, {1.65, 0.1, 1}, {0.25, 0, 0}, {0, 0.3, 0}, 1, {1.8, 0.2, 2}));
+    const auto first = static_cast<std::uint32_t>(scene.surfaces.size() - 4);
+    BakeOptions o = quick(-1);
+    o.ambient = false;  // the ambient term is spread everywhere, the compartment too
+    const visdb::Bake b = bake(scene, o);
+    double lit_face = 0.0, dark_side = 0.0;
+    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
+        const std::uint32_t surface = b.mesh.triangle_surface[t];
+        for (int k = 0; k < 3; ++k) {
+            const glm::vec3 h = b.mesh.irradiance[b.mesh.triangles[t][k]];
+            if (surface == first + 2) lit_face = std::max(lit_face, double(h.y));
+            if (surface == first + 1 || surface == first + 3)
+                dark_side = std::max({dark_side, double(h.x), double(h.y), double(h.z)});
+        }
+    }
+    EXPECT_GT(lit_face, 0.01);
+    EXPECT_EQ(dark_side, 0.0);
+}
+
 TEST(Interreflection, EnergyBalanceWithAnOpening) {
     // Black room, open floor: the light's power escapes as F(centroid → floor opening)
     {
