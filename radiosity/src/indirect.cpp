@@ -558,22 +558,16 @@ class Solver {
     // a block (the cell holding it is a member), else the member centroid nearest to it; the
     // normal is that member's region's
     ShooterFrame point_of(std::span<const std::uint32_t> members, std::uint32_t s) const {
-        const std::uint32_t nearest = s < m_point.size() && m_point[s] != kNoPatch
-                                          ? m_point[s]
-                                          : nearest_to_centroid(members);
+        const std::uint32_t nearest =
+            m_point[s] != kNoPatch ? m_point[s] : nearest_to_centroid(members);
         const std::uint32_t r = m_sol.elements[nearest].region;
         glm::dvec3 point = m_sol.elements[nearest].centroid;
         const bool planar = std::all_of(members.begin(), members.end(), [&](std::uint32_t e) {
             return m_sol.elements[e].region == r;
         });
         if (planar && members.size() > 1) {
-            glm::dvec3 c(0.0);
-            double a = 0.0;
-            for (const std::uint32_t e : members) {
-                c += m_sol.elements[e].area * m_sol.elements[e].centroid;
-                a += m_sol.elements[e].area;
-            }
-            if (a > 0.0 && on_member(r, c / a, s)) point = c / a;
+            const glm::dvec3 c = members_centroid(members);
+            if (on_member(r, c, s)) point = c;
         }
         return ShooterFrame::at(point, m_region_normal[r]);
     }
@@ -633,15 +627,20 @@ class Solver {
         return ns;
     }
 
-    // The member whose centroid is nearest to the members' area centroid
-    std::uint32_t nearest_to_centroid(std::span<const std::uint32_t> members) const {
+    // The members' area centroid (the first member's centroid when they have no area)
+    glm::dvec3 members_centroid(std::span<const std::uint32_t> members) const {
         glm::dvec3 c(0.0);
         double a = 0.0;
         for (const std::uint32_t e : members) {
             c += m_sol.elements[e].area * m_sol.elements[e].centroid;
             a += m_sol.elements[e].area;
         }
-        c = a > 0.0 ? c / a : m_sol.elements[members[0]].centroid;
+        return a > 0.0 ? c / a : m_sol.elements[members[0]].centroid;
+    }
+
+    // The member whose centroid is nearest to the members' area centroid
+    std::uint32_t nearest_to_centroid(std::span<const std::uint32_t> members) const {
+        const glm::dvec3 c = members_centroid(members);
         std::uint32_t nearest = members[0];
         for (const std::uint32_t e : members)
             if (glm::distance(m_sol.elements[e].centroid, c) <
@@ -1063,7 +1062,7 @@ class Solver {
     const std::vector<glm::dvec3> m_region_normal;
     std::unique_ptr<Bvh> m_bvh;
     // Per shooter, the member it shoots from when split_unseen_members chose it (else
-    // kNoPatch, or past the end: point_of chooses)
+    // kNoPatch: point_of chooses)
     std::vector<std::uint32_t> m_point;
     std::vector<std::uint32_t> m_occluders;  // large_occluders: rasterized first by each row
     std::string m_label;

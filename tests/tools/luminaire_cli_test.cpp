@@ -47,6 +47,15 @@ const char* const kOffice =
 const char* const kCorridor =
     "[[luminaire]]\nfile = \"lamp.ies\"\nposition = [3, 2.5, 2.5]\ngroup = \"corridor\"\n";
 
+// Writes the floor, its lamp and a scene file of both light groups (kOffice, kCorridor) into
+// dir/model; returns the floor's and the scene file's paths.
+std::pair<fs::path, fs::path> write_two_groups(const TempDir& dir) {
+    fs::create_directories(dir / "model");
+    const fs::path floor = dir.write("model/floor.obj", kFloor);
+    dir.write("model/lamp.ies", kIes);
+    return {floor, dir.write("model/both.toml", std::string(kOffice) + "\n" + kCorridor)};
+}
+
 TEST(LuminaireCli, ImportReportsStoresAndBakes) {
     const TempDir dir("luminaire");
     fs::create_directories(dir / "model");
@@ -243,10 +252,7 @@ SymmetricWeb read_symmetric_ies(const std::string& text) {
 // export), the bake's own mix the bake itself, and an unknown group exit 2.
 TEST(LuminaireCli, SceneMixWithoutReBaking) {
     const TempDir dir("luminaire");
-    fs::create_directories(dir / "model");
-    const fs::path floor = dir.write("model/floor.obj", kFloor);
-    dir.write("model/lamp.ies", kIes);
-    const fs::path both = dir.write("model/both.toml", std::string(kOffice) + "\n" + kCorridor);
+    const auto [floor, both] = write_two_groups(dir);
     const fs::path alone = dir.write("model/office.toml", kOffice);
     const std::string db = dir.file("both.visdb"), db_office = dir.file("office.visdb");
     for (const auto& [scene, file] : {std::pair{both, db}, std::pair{alone, db_office}}) {
@@ -313,10 +319,7 @@ TEST(LuminaireCli, SceneMixWithoutReBaking) {
 // keeps a shade for each vertex of the coarsened mesh, and the groups add up to the bake.
 TEST(LuminaireCli, LightGroupsFollowTheCoarsenedMesh) {
     const TempDir dir("luminaire");
-    fs::create_directories(dir / "model");
-    const fs::path floor = dir.write("model/floor.obj", kFloor);
-    dir.write("model/lamp.ies", kIes);
-    const fs::path scene = dir.write("model/both.toml", std::string(kOffice) + "\n" + kCorridor);
+    const auto [floor, scene] = write_two_groups(dir);
     const std::string db = dir.file("both.visdb");
     ASSERT_EQ(
         run_abrad("import " + floor.string() + " --scene " + scene.string() + " --db " + db).status,
