@@ -174,6 +174,8 @@ class RegionShafts {
                  const RegionSources& sources, double reach, double tile)
         : m_g(g),
           m_bvh(bvh),
+          m_occluders(outline_patches(g.patches, regions.of_triangle, normals_of(regions)).patches),
+          m_occluder_bvh(m_occluders),
           m_regions(regions),
           m_sources(sources),
           m_reach(reach),
@@ -194,9 +196,9 @@ class RegionShafts {
                 const glm::dvec3 corners[4] = {lp.p[0], lp.p[1], lp.p[2], x};
                 const Hull shaft(corners);
                 for (std::uint32_t c = tile->start[k]; c < tile->start[k + 1]; ++c) {
-                    const Box& b = m_bvh.box(tile->ids[c]);
+                    const Box& b = m_occluder_bvh.box(tile->ids[c]);
                     if (b.overlaps(shaft.box()) && shaft.may_overlap(b))
-                        out.push_back(&m_g.patches[tile->ids[c]]);
+                        out.push_back(&m_occluders[tile->ids[c]]);
                 }
             };
             h = exact_irradiance_with(m_g.patches, m_g.emittance, lights, x, n, occ, m_reach,
@@ -282,9 +284,8 @@ class RegionShafts {
                                           o + a1 * f.u + b0 * f.v,
                                           o + a1 * f.u + b1 * f.v,
                                           o + a0 * f.u + b1 * f.v};
-            m_bvh.query(Hull(points), [&](std::uint32_t id) {
-                if (id != l) tile.ids.push_back(id);
-            });
+            // (the light itself, in its own plane, hides nothing)
+            m_occluder_bvh.query(Hull(points), [&](std::uint32_t id) { tile.ids.push_back(id); });
             if (tile.ids.size() > kMaxListed * lights.size()) {  // point by point
                 tile.start = {};
                 tile.ids = {};
@@ -295,8 +296,18 @@ class RegionShafts {
         tile.built = true;
     }
 
+    static std::vector<glm::dvec3> normals_of(const Regions& regions) {
+        std::vector<glm::dvec3> n;
+        for (const PlanarRegion& r : regions.planar) n.push_back(r.normal);
+        return n;
+    }
+
     const BakeGeometry& m_g;
     const Bvh& m_bvh;
+    // The tiles' occluder candidates: each region from its outline (indirect.h Outlines), the
+    // same surfaces in fewer triangles, so fewer shadows to subtract from each light
+    const std::vector<Patch> m_occluders;
+    const Bvh m_occluder_bvh;
     const Regions& m_regions;
     const RegionSources& m_sources;
     double m_reach, m_tile;

@@ -135,6 +135,15 @@ class Criteria {
 };
 using Mesher = CGAL::Delaunay_mesher_2<Cdt2, Criteria>;
 
+// Triangulation of a region's outline alone (outline_triangulation): no crossings allowed,
+// so no point is constructed; a crossing throws and the region keeps its triangles.
+using VbO = CGAL::Triangulation_vertex_base_with_info_2<std::uint32_t, K>;
+using FbOi = CGAL::Triangulation_face_base_with_info_2<FInfo, K>;
+using FbO = CGAL::Constrained_triangulation_face_base_2<K, FbOi>;
+using TdsO = CGAL::Triangulation_data_structure_2<VbO, FbO>;
+using CdtO = CGAL::Constrained_Delaunay_triangulation_2<
+    K, TdsO, CGAL::No_constraint_intersection_requiring_constructions_tag>;
+
 // ---------------------------------------------------------------------------------------------
 // Small geometry helpers
 
@@ -1119,6 +1128,185 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
     tbb::parallel_for(std::size_t{0}, n, [&](std::size_t r) { canonical_order(outputs[r]); });
     if (stats) *stats = total;
     return outputs;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outlines
+
+namespace {
+
+/// Distance from q to the segment [a, b] (2D).
+double distance_to_segment(Vec2 q, Vec2 a, Vec2 b) {
+    const Vec2 d = b - a;
+    const double dd = dot2(d, d);
+    const double t = dd > 0.0 ? std::clamp(dot2(q - a, d) / dd, 0.0, 1.0) : 0.0;
+    return len2(q - (a + t * d));
+}
+
+/// The outline's edges: chains of boundary vertices between vertices where the boundary
+/// branches (or, around a loop without one, from its sharpest corner), each chain cut into the
+/// fewest straight runs within `tolerance` of their chord, greedily.
+std::vector<std::array<std::uint32_t, 2>> outline_edges(
+    const std::vector<std::array<std::uint32_t, 2>>& boundary, const std::vector<Vec2>& p,
+    double tolerance) {
+    std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> around;  // vertex -> edges
+    for (std::uint32_t e = 0; e < boundary.size(); ++e)
+        for (const std::uint32_t v : boundary[e]) around[v].push_back(e);
+    std::vector<char> used(boundary.size(), 0);
+    std::vector<std::array<std::uint32_t, 2>> out;
+    const auto other = [&](std::uint32_t e, std::uint32_t v) {
+        return boundary[e][0] == v ? boundary[e][1] : boundary[e][0];
+    };
+    // Walks from anchor `a` along edge `e` to the next anchor (or back to `a`)
+    const auto walk = [&](std::uint32_t a, std::uint32_t e) {
+        std::vector<std::uint32_t> chain{a};
+        std::uint32_t v = a;
+        for (;;) {
+            used[e] = 1;
+            v = other(e, v);
+            chain.push_back(v);
+            const std::vector<std::uint32_t>& es = around[v];
+            if (v == a || es.size() != 2) break;
+            e = es[0] == e ? es[1] : es[0];
+            if (used[e]) break;
+        }
+        // The fewest runs, greedily: each as long as its vertices stay near its chord
+        std::size_t i = 0;
+        while (i + 1 < chain.size()) {
+            std::size_t j = i + 1;
+            while (j + 1 < chain.size()) {
+                bool straight = true;
+                for (std::size_t q = i + 1; q <= j && straight; ++q)
+                    straight =
+                        distance_to_segment(p[chain[q]], p[chain[i]], p[chain[j + 1]]) <= tolerance;
+                if (!straight) break;
+                ++j;
+            }
+            out.push_back({chain[i], chain[j]});
+            i = j;
+        }
+    };
+    for (const auto& [v, es] : around)
+        if (es.size() != 2)
+            for (const std::uint32_t e : es)
+                if (!used[e]) walk(v, e);
+    // Loops of two-edge vertices only: from the sharpest corner
+    for (std::uint32_t e0 = 0; e0 < boundary.size(); ++e0) {
+        if (used[e0]) continue;
+        std::uint32_t best = boundary[e0][0], v = best, e = e0;
+        double sharpest = -1.0;
+        for (std::size_t guard = 0; guard <= boundary.size(); ++guard) {
+            const std::uint32_t w = other(e, v);
+            const std::vector<std::uint32_t>& es = around[w];
+            const std::uint32_t f = es[0] == e ? es[1] : es[0];
+            const Vec2 in = p[w] - p[v], out_dir = p[other(f, w)] - p[w];
+            const double n = len2(in) * len2(out_dir);
+            const double turn = n > 0.0 ? std::abs(cross2(in, out_dir)) / n : 0.0;
+            if (turn > sharpest) {
+                sharpest = turn;
+                best = w;
+            }
+            v = w;
+            e = f;
+            if (e == e0) break;
+        }
+        const std::vector<std::uint32_t>& es = around[best];
+        walk(best, used[es[0]] ? es[1] : es[0]);
+    }
+    return out;
+}
+
+}  // namespace
+
+MeshedRegion outline_triangulation(const PlanarRegion& region, double tolerance) {
+    const std::size_t nv = region.positions.size();
+    if (region.triangles.size() < 3 || !(glm::length(region.normal) > 0.0)) return {};
+    for (const glm::u32vec3& t : region.triangles)
+        if (t.x >= nv || t.y >= nv || t.z >= nv) return {};
+    const Frame frame = make_frame(region.normal, region.positions[region.triangles[0][0]]);
+    std::vector<Vec2> p(nv);
+    for (std::size_t i = 0; i < nv; ++i) p[i] = frame.project(region.positions[i]);
+
+    // The boundary: edges of an odd number of triangles; the area the triangles cover
+    std::unordered_map<std::uint64_t, int> uses;
+    double area = 0.0;
+    for (const glm::u32vec3& t : region.triangles) {
+        area += 0.5 * std::abs(cross2(p[t.y] - p[t.x], p[t.z] - p[t.x]));
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+            ++uses[(std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)];
+        }
+    }
+    std::vector<std::array<std::uint32_t, 2>> boundary;
+    for (const auto& [key, n] : uses)
+        if (n % 2 == 1)
+            boundary.push_back({static_cast<std::uint32_t>(key >> 32),
+                                static_cast<std::uint32_t>(key & 0xFFFFFFFFu)});
+    std::sort(boundary.begin(), boundary.end());  // the same outline whatever the hash order
+    if (boundary.size() < 3 || !(area > 0.0)) return {};
+    const std::vector<std::array<std::uint32_t, 2>> edges = outline_edges(boundary, p, tolerance);
+    if (edges.size() < 3) return {};
+
+    CdtO cdt;
+    std::unordered_map<std::uint32_t, CdtO::Vertex_handle> vh;
+    try {
+        for (const auto& e : edges)
+            for (const std::uint32_t v : e)
+                if (!vh.count(v)) {
+                    const CdtO::Vertex_handle h = cdt.insert(K::Point_2(p[v].x, p[v].y));
+                    h->info() = v;
+                    vh[v] = h;
+                }
+        for (const auto& e : edges)
+            if (vh.at(e[0]) != vh.at(e[1])) cdt.insert_constraint(vh.at(e[0]), vh.at(e[1]));
+    } catch (const std::exception&) {
+        return {};  // outlines that cross: keep the triangles
+    }
+    if (cdt.dimension() < 2) return {};
+
+    // Inside: an odd number of outline edges crossed from the infinite faces
+    for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->info().parity = -1;
+    std::vector<CdtO::Face_handle> queue;
+    auto fc = cdt.incident_faces(cdt.infinite_vertex()), done = fc;
+    do {
+        fc->info().parity = 0;
+        queue.push_back(fc);
+    } while (++fc != done);
+    while (!queue.empty()) {
+        const CdtO::Face_handle f = queue.back();
+        queue.pop_back();
+        for (int i = 0; i < 3; ++i) {
+            const CdtO::Face_handle g = f->neighbor(i);
+            if (g->info().parity >= 0) continue;
+            g->info().parity = f->info().parity ^ (f->is_constrained(i) ? 1 : 0);
+            queue.push_back(g);
+        }
+    }
+
+    MeshedRegion out;
+    std::unordered_map<std::uint32_t, std::uint32_t> local;
+    double covered = 0.0;
+    for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+        if (f->info().parity != 1) continue;
+        glm::u32vec3 t;
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = f->vertex(k)->info();
+            const auto [it, added] = local.try_emplace(v, static_cast<std::uint32_t>(nv));
+            if (added) {
+                it->second = static_cast<std::uint32_t>(out.positions.size());
+                out.positions.push_back(region.positions[v]);
+                out.source_vertex.push_back(v);
+            }
+            t[k] = it->second;
+        }
+        covered += 0.5 * cross2(p[f->vertex(1)->info()] - p[f->vertex(0)->info()],
+                                p[f->vertex(2)->info()] - p[f->vertex(0)->info()]);
+        out.triangles.push_back(t);
+    }
+    if (out.triangles.size() >= region.triangles.size() ||
+        !(std::abs(covered - area) <= 1e-6 * area))
+        return {};
+    return out;
 }
 
 }  // namespace abrad::radiosity

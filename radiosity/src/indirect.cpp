@@ -23,6 +23,7 @@
 #include "abrad/check.h"
 #include "abrad/radiosity/cluster.h"
 #include "abrad/radiosity/direct.h"
+#include "abrad/radiosity/dm_mesh.h"
 #include "abrad/radiosity/form_factor.h"
 #include "abrad/radiosity/hemicube.h"
 #include "abrad/radiosity/point_source.h"
@@ -35,6 +36,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 using visdb::channel_mean;
+
+// Outline vertices this close to a straight run of the outline (a fraction of the region's
+// size) are dropped from the hemicubes' patches (make_visibility)
+constexpr double kOutlineTolerance = 1e-7;
 
 // One entry of a form-factor row: the element, and the fraction of the shooter's power it
 // stops on its front (or, with kBack set, on its back, where it is absorbed).
@@ -330,13 +335,13 @@ class Solver {
         make_elements();
         // Each hemicube walks the triangles front to back, skips what closed pixels hide, and
         // hands what it sees to the elements
-        m_bvh = std::make_unique<Bvh>(m_in.patches);
+        m_bvh = std::make_unique<Bvh>(m_vis);
         make_shooters();
         m_shoot.bvh = m_bvh.get();
         // Walls and slabs (a cell and larger) are rasterized first by every row's hemicube
-        m_occluders =
-            large_occluders(m_in.patches, m_options.element_size * m_options.element_size);
-        m_shoot.occluders_first = m_occluders;
+        m_occluders.emplace(large_occluders(m_vis, m_options.element_size * m_options.element_size,
+                                            kNearOccluders * m_options.element_size));
+        m_shoot.occluders_first = &*m_occluders;
         m_shoot.targets = m_targets.get();
         shoot_lights();
         // The lights' shots onto the elements keep the finer masks; a row's form factors are
@@ -487,10 +492,9 @@ class Solver {
             if (e != kNoPatch && m_sol.elements[e].area < kSmallElement * size * size)
                 m_small.triangles[e].push_back(static_cast<std::uint32_t>(t));
         }
-        m_targets =
-            std::make_unique<ElementTargets>(m_sol, m_in.region, std::move(whole), std::move(main));
         m_ne = m_sol.elements.size();
         m_sol.index_cells();
+        make_visibility(whole, main);
         for (std::size_t e = 0; e < m_ne; ++e) {
             auto& el = m_sol.elements[e];
             if (el.area > 0.0) {
@@ -499,6 +503,48 @@ class Solver {
             }
             m_total_area += el.area;
         }
+    }
+
+    // The hemicubes' patches: each planar region triangulated from its outline alone
+    // (outline_triangulation) where that takes fewer triangles, so that a finely meshed wall
+    // costs a row what its outline costs. A pixel of such a triangle goes to the element of the
+    // cell it sees (ElementTargets::at), as one of a large triangle always did. Other regions
+    // keep their triangles, and their targets (`whole`, `main`: per triangle).
+    void make_visibility(const std::vector<std::uint32_t>& whole,
+                         const std::vector<std::uint32_t>& main) {
+        Outlines o = outline_patches(m_in.patches, m_in.region, m_region_normal);
+        const double size = m_options.element_size;
+        std::vector<std::uint32_t> vis_whole(o.patches.size()), vis_main(o.patches.size());
+        // Off the elements (rounding at an outline): the element of a triangle of the region
+        std::vector<std::uint32_t> fallback(m_region_normal.size(), kNoPatch);
+        for (std::size_t t = 0; t < m_in.patches.size(); ++t)
+            if (fallback[m_in.region[t]] == kNoPatch)
+                fallback[m_in.region[t]] = whole[t] != kNoPatch ? whole[t] : main[t];
+        for (std::size_t k = 0; k < o.patches.size(); ++k) {
+            if (const std::uint32_t t = o.source[k]; t != kNoPatch) {
+                vis_whole[k] = whole[t];
+                vis_main[k] = main[t];
+                continue;
+            }
+            const std::uint32_t r = o.region[k];
+            const IndirectSolution::Grid& g = m_sol.grids[r];
+            glm::ivec2 lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+            for (const glm::dvec3& x : o.patches[k].p) {
+                const glm::ivec2 c(
+                    static_cast<int>(std::floor(glm::dot(x - g.origin, g.u) / size)),
+                    static_cast<int>(std::floor(glm::dot(x - g.origin, g.v) / size)));
+                lo = glm::min(lo, c);
+                hi = glm::max(hi, c);
+            }
+            const std::uint32_t at = m_sol.element_at(r, centroid(o.patches[k]));
+            vis_whole[k] = lo == hi ? m_sol.element_at(r, lo.x, lo.y) : kNoPatch;
+            vis_main[k] = at != IndirectSolution::kNoElement ? at : fallback[r];
+        }
+        m_vis = std::move(o.patches);
+        m_vis_region = std::move(o.region);
+        m_sol.visibility_triangles = m_vis.size();
+        m_targets = std::make_unique<ElementTargets>(m_sol, m_vis_region, std::move(vis_whole),
+                                                     std::move(vis_main));
     }
 
     // Shooters: the elements that shoot as one, from one point, with one row. A region's
@@ -605,7 +651,7 @@ class Solver {
                 next.clear();
                 for (const std::uint32_t e : left)
                     if (e != p)
-                        (transmittance(m_in.patches, *m_bvh, lifted(e), eye) >= 1.0 ? seen : next)
+                        (transmittance(m_vis, *m_bvh, lifted(e), eye) >= 1.0 ? seen : next)
                             .push_back(e);
                 if (first)
                     first_point[k] = p;
@@ -681,7 +727,7 @@ class Solver {
             m_bvh->query(box, [&](std::uint32_t t) {
                 if (near[s]) return;
                 bool in_front = false;
-                for (const glm::dvec3& p : m_in.patches[t].p)
+                for (const glm::dvec3& p : m_vis[t].p)
                     in_front = in_front || glm::dot(n, p) - plane > eps;
                 near[s] = in_front;
             });
@@ -749,14 +795,14 @@ class Solver {
             [&](std::size_t k, Row& row) {
                 if (k < np) {
                     const PointShooter& s = points[k / 2][k % 2];
-                    fold_row(shoot(s.frame, m_in.patches, s.hemicube, m_shoot).hits, m_sol.elements,
+                    fold_row(shoot(s.frame, m_vis, s.hemicube, m_shoot).hits, m_sol.elements,
                              s.frame, 0.0, nullptr, m_region_normal, row);
                     return;
                 }
                 const Patch& light = m_in.patches[lights[k - np]];
                 const ShooterFrame frame = frame_of(light);
-                fold_row(shoot(frame, m_in.patches, m_hemicube, m_shoot).hits, m_sol.elements,
-                         frame, area(light), &m_small, m_region_normal, row);
+                fold_row(shoot(frame, m_vis, m_hemicube, m_shoot).hits, m_sol.elements, frame,
+                         area(light), &m_small, m_region_normal, row);
             },
             "interreflection: lights");
         for (std::size_t k = 0; k < rows.size(); ++k) {
@@ -853,7 +899,7 @@ class Solver {
             cost, [&](std::size_t k) -> Row& { return m_rows[todo[k]]; },
             [&](std::size_t k, Row& row) {
                 const ShooterFrame& frame = m_shooters[todo[k]];
-                const ShootResult shot = shoot(frame, m_in.patches, m_row_hemicube, m_shoot);
+                const ShootResult shot = shoot(frame, m_vis, m_row_hemicube, m_shoot);
                 double shooter_area = 0.0;
                 for (const std::uint32_t e : members_of(todo[k]))
                     shooter_area += m_sol.elements[e].area;
@@ -1060,11 +1106,14 @@ class Solver {
     const Hemicube m_hemicube, m_row_hemicube;
     ShootOptions m_shoot;
     const std::vector<glm::dvec3> m_region_normal;
+    // The hemicubes' patches and their regions (make_visibility); the BVH is over them
+    std::vector<Patch> m_vis;
+    std::vector<std::uint32_t> m_vis_region;
     std::unique_ptr<Bvh> m_bvh;
     // Per shooter, the member it shoots from when split_unseen_members chose it (else
     // kNoPatch: point_of chooses)
     std::vector<std::uint32_t> m_point;
-    std::vector<std::uint32_t> m_occluders;  // large_occluders: rasterized first by each row
+    std::optional<Occluders> m_occluders;  // large_occluders: rasterized first by each row
     std::string m_label;
     IndirectSolution m_sol;
     std::vector<visdb::Rgb> m_rho_area;
@@ -1087,6 +1136,52 @@ class Solver {
 };
 
 }  // namespace
+
+Outlines outline_patches(std::span<const Patch> patches, std::span<const std::uint32_t> region,
+                         std::span<const glm::dvec3> region_normal) {
+    const std::size_t nr = region_normal.size();
+    std::vector<std::vector<std::uint32_t>> of_region(nr);
+    for (std::size_t t = 0; t < patches.size(); ++t)
+        of_region[region[t]].push_back(static_cast<std::uint32_t>(t));
+    std::vector<MeshedRegion> outline(nr);
+    tbb::parallel_for(std::size_t{0}, nr, [&](std::size_t r) {
+        if (of_region[r].size() < 3) return;
+        PlanarRegion pr;
+        pr.normal = region_normal[r];
+        std::map<std::array<double, 3>, std::uint32_t> index;  // exact positions
+        Box box;
+        for (const std::uint32_t t : of_region[r]) {
+            glm::u32vec3 tri;
+            for (int k = 0; k < 3; ++k) {
+                const glm::dvec3& x = patches[t].p[k];
+                const auto [it, added] = index.try_emplace(
+                    {x.x, x.y, x.z}, static_cast<std::uint32_t>(pr.positions.size()));
+                if (added) pr.positions.push_back(x);
+                tri[k] = it->second;
+                box.grow(x);
+            }
+            pr.triangles.push_back(tri);
+        }
+        outline[r] = outline_triangulation(pr, kOutlineTolerance * glm::distance(box.lo, box.hi));
+    });
+    Outlines out;
+    for (std::size_t r = 0; r < nr; ++r) {
+        const std::vector<std::uint32_t>& ts = of_region[r];
+        const auto add = [&](const Patch& p, std::uint32_t source) {
+            out.patches.push_back(p);
+            out.region.push_back(static_cast<std::uint32_t>(r));
+            out.source.push_back(source);
+        };
+        if (outline[r].triangles.empty()) {
+            for (const std::uint32_t t : ts) add(patches[t], t);
+            continue;
+        }
+        const std::vector<glm::dvec3>& x = outline[r].positions;
+        for (const glm::u32vec3& t : outline[r].triangles)
+            add({{x[t.x], x[t.y], x[t.z]}, patches[ts[0]].opacity}, kNoPatch);
+    }
+    return out;
+}
 
 IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& options,
                                 const ProgressFn& progress) {
@@ -1123,7 +1218,7 @@ IndirectField::IndirectField(const visdb::Scene& scene, const visdb::BakeMesh& m
     }
     m_bvh.emplace(m_patches);
     // Walls and slabs, rasterized first by every gather
-    m_occluders = large_occluders(m_patches, kOccluderArea);
+    m_occluders.emplace(large_occluders(m_patches, kOccluderArea, kOccluderNear));
 }
 
 visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3& n) const {
@@ -1134,7 +1229,7 @@ visdb::Rgb IndirectField::irradiance(const glm::dvec3& x_world, const glm::dvec3
                                     .occlusion = false,
                                     .bvh = &*m_bvh,
                                     .sparse = true,
-                                    .occluders_first = m_occluders,
+                                    .occluders_first = &*m_occluders,
                                     .fine_masks = false});
     visdb::Rgb h(0.0);
     for (const auto [j, f] : shot.hits)

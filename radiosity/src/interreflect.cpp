@@ -48,6 +48,7 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
         visdb::InterreflectionStats& i = stats->indirect.emplace();
         i.elements = s.elements.size();
         i.pieces = s.pieces;
+        i.visibility_triangles = s.visibility_triangles;
         i.shooters = s.shooters;
         i.shots = s.shots;
         i.rows = s.rows_computed;

@@ -717,6 +717,41 @@ bool box_hidden(const ShooterFrame& frame, const Hemicube& hc, const ClosedPixel
     return true;
 }
 
+// The large occluders (ShootOptions::occluders_first), each in front of the shooter's plane
+// handed to `rasterize`: those within `near` of the shooter nearest corner first, the others
+// through their BVH, front to back, their nodes entered as `enter` says.
+template <typename Enter, typename Rasterize>
+void rasterize_occluders(const ShooterFrame& frame, std::span<const Patch> patches,
+                         const Occluders& occluders, std::uint32_t exclude, Enter&& enter,
+                         Rasterize&& rasterize) {
+    const auto ahead = [&](std::uint32_t id) {
+        bool a = false;
+        for (const glm::dvec3& x : patches[id].p)
+            a = a || glm::dot(x - frame.origin, frame.n) > 0.0;
+        return a && id != exclude;
+    };
+    Box near_box;
+    near_box.grow(frame.origin - glm::dvec3(occluders.near));
+    near_box.grow(frame.origin + glm::dvec3(occluders.near));
+    thread_local std::vector<std::pair<double, std::uint32_t>> nearest_first;
+    nearest_first.clear();
+    if (occluders.near > 0.0)
+        occluders.bvh.query(near_box, [&](std::uint32_t k) {
+            const std::uint32_t id = occluders.ids[k];
+            if (!ahead(id)) return;
+            double nearest = std::numeric_limits<double>::infinity();
+            for (const glm::dvec3& x : patches[id].p)
+                nearest = std::min(nearest, glm::dot(x - frame.origin, x - frame.origin));
+            nearest_first.emplace_back(nearest, id);
+        });
+    std::sort(nearest_first.begin(), nearest_first.end());
+    for (const auto& [d2, id] : nearest_first) rasterize(id);
+    occluders.bvh.front_to_back(frame.origin, enter, [&](std::uint32_t k) {
+        if (occluders.near > 0.0 && occluders.bvh.box(k).overlaps(near_box)) return;
+        if (ahead(occluders.ids[k])) rasterize(occluders.ids[k]);
+    });
+}
+
 // Scan-converts the patches into fragments, nearest first; culls pieces (and, walking a BVH,
 // whole nodes) behind closed pixels when no occlusion lists are asked for (Algorithm 2 lists
 // hidden patches behind their occluders too) or when the walk is asked to cull them anyway
@@ -775,36 +810,25 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
         });
     };
     if (walk) {
+        const auto enter = [&](const Box& box) {
+            if (!cull || !box_hidden(frame, hc, closed, box)) return true;
+            ++result.hidden_nodes;
+            return false;
+        };
         // Large occluders first: the walls and slabs close pixels before the clutter behind
-        // them is walked. They go nearest first too, so that a wall of the next room finds the
-        // pixels this room's walls closed and is not rasterized at all
-        const std::span<const std::uint32_t> first = options.occluders_first;
-        thread_local std::vector<std::pair<double, std::uint32_t>> nearest_first;
-        nearest_first.clear();
-        for (const std::uint32_t id : first) {
-            const Patch& pt = patches[id];
-            double nearest = std::numeric_limits<double>::infinity();
-            bool ahead = false;
-            for (const glm::dvec3& x : pt.p) {
-                ahead = ahead || glm::dot(x - frame.origin, frame.n) > 0.0;
-                nearest = std::min(nearest, glm::dot(x - frame.origin, x - frame.origin));
-            }
-            if (id != options.exclude && ahead) nearest_first.emplace_back(nearest, id);
+        // them is walked. Those near the shooter go nearest first (the room's own walls), the
+        // others through their BVH, so that a wall of the next room finds the pixels this
+        // room's walls closed and is not visited at all
+        std::span<const std::uint32_t> first;
+        if (const Occluders* occluders = options.occluders_first) {
+            first = occluders->ids;
+            rasterize_occluders(frame, patches, *occluders, options.exclude, enter, rasterize);
         }
-        std::sort(nearest_first.begin(), nearest_first.end());
-        for (const auto& [d2, id] : nearest_first) rasterize(id);
-        options.bvh->front_to_back(
-            frame.origin,
-            [&](const Box& box) {
-                if (!cull || !box_hidden(frame, hc, closed, box)) return true;
-                ++result.hidden_nodes;
-                return false;
-            },
-            [&](std::uint32_t id) {
-                if (id != options.exclude && id < patches.size() &&
-                    !std::binary_search(first.begin(), first.end(), id))
-                    rasterize(id);
-            });
+        options.bvh->front_to_back(frame.origin, enter, [&](std::uint32_t id) {
+            if (id != options.exclude && id < patches.size() &&
+                !std::binary_search(first.begin(), first.end(), id))
+                rasterize(id);
+        });
     } else {
         for (const auto& nearest_and_patch : front_to_back(frame, patches, options))
             rasterize(nearest_and_patch.second);
@@ -961,12 +985,16 @@ ShootResult shoot(const ShooterFrame& frame, std::span<const Patch> patches,
     }
 }
 
-std::vector<std::uint32_t> large_occluders(std::span<const Patch> patches, double min_area) {
+Occluders large_occluders(std::span<const Patch> patches, double min_area, double near) {
     std::vector<std::uint32_t> ids;
+    std::vector<Box> boxes;
     for (std::size_t t = 0; t < patches.size(); ++t)
-        if (patches[t].opacity >= 1.0 && area(patches[t]) >= min_area)
+        if (patches[t].opacity >= 1.0 && area(patches[t]) >= min_area) {
             ids.push_back(static_cast<std::uint32_t>(t));
-    return ids;
+            Box& b = boxes.emplace_back();
+            for (const glm::dvec3& x : patches[t].p) b.grow(x);
+        }
+    return {std::move(ids), Bvh(std::move(boxes)), near};
 }
 
 std::string to_string(Visibility method) {

@@ -288,7 +288,7 @@ void project_shadow_edges(const BakeGeometry& g, const Regions& regions, const B
 // receivers of the regions a shot reached), and the walls and slabs its walk rasterizes first.
 struct ShotContext {
     std::vector<std::uint32_t> region_start, region_triangles;
-    std::vector<std::uint32_t> occluders;
+    std::optional<Occluders> occluders;
 };
 
 ShotContext shot_context(const BakeGeometry& g, const Regions& regions,
@@ -303,7 +303,8 @@ ShotContext shot_context(const BakeGeometry& g, const Regions& regions,
     for (std::size_t t = 0; t < regions.of_triangle.size(); ++t)
         c.region_triangles[fill[regions.of_triangle[t]]++] = static_cast<std::uint32_t>(t);
     // The interreflection's rule: a cell of its element grid and larger
-    c.occluders = large_occluders(g.patches, options.element_size * options.element_size);
+    c.occluders.emplace(large_occluders(g.patches, options.element_size * options.element_size,
+                                        kNearOccluders * options.element_size));
     return c;
 }
 
@@ -361,7 +362,7 @@ std::vector<std::uint32_t> lit_from_corners(const BakeGeometry& g, const Bvh& bv
     so.exclude = l;
     so.bvh = &bvh;
     so.sparse = true;
-    so.occluders_first = context.occluders;
+    so.occluders_first = &*context.occluders;
     std::vector<std::uint32_t> out;
     for (const glm::dvec3& p : light.p) {
         const ShootResult corner =
@@ -396,7 +397,7 @@ OneLight shoot_one(const BakeGeometry& g, const Regions& regions, const Bvh& bvh
     if (walk) {
         so.bvh = &bvh;
         so.cull_listed = true;
-        so.occluders_first = context.occluders;
+        so.occluders_first = &*context.occluders;
     } else {
         out.near = light_candidates(bvh, g.patches, l, options.reach);
         out.near_vertices = vertices_of(out.near, g.mesh.triangles);

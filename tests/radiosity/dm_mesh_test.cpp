@@ -555,5 +555,90 @@ TEST(DmMesh, InvalidInputThrows) {
     EXPECT_NO_THROW(mesh({unit_square()}));
 }
 
+// ---------------------------------------------------------------------------------------------
+// Outlines (the interreflection's hemicube patches)
+
+/// The outline triangulation keeps the region's area, faces the normal and only uses the
+/// region's own vertices.
+void expect_outline_of(const PlanarRegion& r, const MeshedRegion& m) {
+    ASSERT_FALSE(m.triangles.empty());
+    EXPECT_NEAR(area_out(m), area_in(r), 1e-9 * area_in(r));
+    expect_ccw(m, r.normal);
+    ASSERT_EQ(m.source_vertex.size(), m.positions.size());
+    for (std::size_t i = 0; i < m.positions.size(); ++i) {
+        ASSERT_LT(m.source_vertex[i], r.positions.size());
+        EXPECT_EQ(m.positions[i], r.positions[m.source_vertex[i]]);
+    }
+}
+
+TEST(Outline, AFinelyMeshedTiltedWallIsTwoTriangles) {
+    const glm::dvec3 a{2.0, 1.0, 0.0}, b{0.0, 0.6, 1.8};
+    const PlanarRegion r = make_grid(12, {1.0, -2.0, 0.5}, a, b, glm::normalize(glm::cross(a, b)));
+    ASSERT_EQ(r.triangles.size(), 288u);
+    const MeshedRegion m = outline_triangulation(r, 1e-9);
+    expect_outline_of(r, m);
+    EXPECT_EQ(m.triangles.size(), 2u);
+    EXPECT_EQ(m.positions.size(), 4u);  // the corners
+}
+
+TEST(Outline, AHoleAndANotchStayOpen) {
+    // [0,3]² in unit squares of 4 x 4 cells, without the middle square (a hole) and the
+    // top-right one (a notch)
+    PlanarRegion r;
+    r.normal = {0, 0, 1};
+    std::map<std::pair<int, int>, std::uint32_t> index;
+    const auto id = [&](int i, int j) {
+        const auto [it, added] =
+            index.try_emplace({i, j}, static_cast<std::uint32_t>(r.positions.size()));
+        if (added) r.positions.push_back({i / 4.0, j / 4.0, 0.0});
+        return it->second;
+    };
+    for (int j = 0; j < 12; ++j)
+        for (int i = 0; i < 12; ++i) {
+            if ((i / 4 == 1 && j / 4 == 1) || (i / 4 == 2 && j / 4 == 2)) continue;
+            r.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+            r.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+        }
+    ASSERT_NEAR(area_in(r), 7.0, 1e-12);
+    const MeshedRegion m = outline_triangulation(r, 1e-9);
+    expect_outline_of(r, m);
+    EXPECT_LE(m.triangles.size(), 16u);
+    for (const auto& t : m.triangles) {
+        const glm::dvec3 c = (m.positions[t[0]] + m.positions[t[1]] + m.positions[t[2]]) / 3.0;
+        EXPECT_FALSE(c.x > 1 && c.x < 2 && c.y > 1 && c.y < 2) << "triangle in the hole";
+        EXPECT_FALSE(c.x > 2 && c.y > 2) << "triangle in the notch";
+    }
+}
+
+TEST(Outline, ACurvedOutlineKeepsEveryCorner) {
+    // A disc fanned from its centre: 64 rim vertices, none on a line through its neighbours
+    std::vector<glm::dvec3> pos{{0, 0, 0}};
+    std::vector<glm::u32vec3> tris;
+    for (int k = 0; k < 64; ++k)
+        pos.push_back({std::cos(2 * kPi * k / 64), std::sin(2 * kPi * k / 64), 0.0});
+    for (std::uint32_t k = 0; k < 64; ++k) tris.push_back({0, 1 + k, 1 + (k + 1) % 64});
+    const PlanarRegion r = make_region({0, 0, 1}, pos, tris);
+    const MeshedRegion m = outline_triangulation(r, 1e-9);
+    expect_outline_of(r, m);
+    EXPECT_EQ(m.triangles.size(), 62u);
+    EXPECT_EQ(m.positions.size(), 64u);  // the rim, not the centre
+}
+
+TEST(Outline, NothingToGainOrOverlapsKeepTheTriangles) {
+    // Two triangles already
+    EXPECT_TRUE(outline_triangulation(unit_square(), 1e-9).triangles.empty());
+    // A 4 x 4 grid with one more triangle lying over it: the union is not the sum of the areas
+    PlanarRegion r = make_grid(4, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1});
+    r.positions.push_back({0.1, 0.1, 0.0});
+    r.positions.push_back({0.9, 0.1, 0.0});
+    r.positions.push_back({0.5, 0.8, 0.0});
+    const auto n = static_cast<std::uint32_t>(r.positions.size());
+    r.triangles.push_back({n - 3, n - 2, n - 1});
+    EXPECT_TRUE(outline_triangulation(r, 1e-9).triangles.empty());
+    // Without it, the outline
+    r.triangles.pop_back();
+    EXPECT_EQ(outline_triangulation(r, 1e-9).triangles.size(), 2u);
+}
+
 }  // namespace
 }  // namespace abrad::radiosity

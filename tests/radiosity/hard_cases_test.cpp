@@ -621,8 +621,8 @@ TEST(Cull, OccludersFirstChangeNoFormFactorAndVisitLess) {
             cube({6.0 + 0.6 * i, 0.3 + 0.6 * j, 1.0}, 0.2);                         // outside
         }
     const Bvh bvh(p);
-    const std::vector<std::uint32_t> walls = large_occluders(p, 1.0);
-    EXPECT_EQ(walls.size(), 12u);  // the pane (translucent) and the cubes are not among them
+    const Occluders walls = large_occluders(p, 1.0, 2.0);
+    EXPECT_EQ(walls.ids.size(), 12u);  // the pane (translucent) and the cubes are not among them
     std::size_t visited_plain = 0, visited_bvh = 0, visited_first = 0;
     for (const ShooterFrame& frame : {ShooterFrame::at({2.0, 2.0, 0.0}, {0, 0, 1}),
                                       ShooterFrame::at({0.0, 1.5, 1.5}, {1, 0, 0}),
@@ -631,7 +631,7 @@ TEST(Cull, OccludersFirstChangeNoFormFactorAndVisitLess) {
         const ShootResult plain = shoot(frame, p, Hemicube(32), o);
         o.bvh = &bvh;
         const ShootResult culled = shoot(frame, p, Hemicube(32), o);
-        o.occluders_first = walls;
+        o.occluders_first = &walls;
         const ShootResult first = shoot(frame, p, Hemicube(32), o);
         ASSERT_EQ(plain.hits.size(), culled.hits.size());
         ASSERT_EQ(plain.hits.size(), first.hits.size());
@@ -677,8 +677,8 @@ TEST(Cull, CulledListsKeepFormFactorsAndArePartOfTheFullLists) {
     const ShootResult plain = shoot(frame, p, Hemicube(32), o);
     o.bvh = &bvh;
     o.cull_listed = true;
-    const std::vector<std::uint32_t> walls = large_occluders(p, 1.0);
-    o.occluders_first = walls;
+    const Occluders walls = large_occluders(p, 1.0, 2.0);
+    o.occluders_first = &walls;
     const ShootResult culled = shoot(frame, p, Hemicube(32), o);
     ASSERT_EQ(plain.form_factor.size(), culled.form_factor.size());
     for (std::size_t k = 0; k < p.size(); ++k)

@@ -242,6 +242,29 @@ TEST(Interreflection, SmallFacesGroupedInAClosedRoomLoseNoLight) {
     expect_energy_balance(b);
 }
 
+// The hemicubes draw each planar surface from its outline (outline_patches), so how finely a
+// surface is meshed changes neither their cost nor what they see: a floor of 4 x 4 or 12 x 12
+// cells is two triangles to them, and so is each wall of 6 x 6, and the two rooms' light
+// agrees to the solution's own tolerance.
+TEST(Interreflection, HemicubesDrawSurfacesFromTheirOutlines) {
+    RoomSpec coarse{.floor = 0.5, .walls = 0.5, .ceiling = 0.5, .light = 0.0, .cells = 4};
+    RoomSpec fine = coarse;
+    fine.cells = 12;
+    const visdb::Bake a = bake(room(coarse), quick(-1)), b = bake(room(fine), quick(-1));
+    const auto &sa = a.statistics.indirect.value(), &sb = b.statistics.indirect.value();
+    ASSERT_EQ(a.statistics.triangles, 2 * 16 + 4 * 72 + 120 + 2u);
+    ASSERT_EQ(b.statistics.triangles, 2 * 144 + 4 * 72 + 120 + 2u);
+    // The floor and each wall two triangles; the ceiling's cells, each a region of its own
+    // (they share no vertex), and the light keep theirs
+    EXPECT_EQ(sa.visibility_triangles, 2 + 4 * 2 + 120 + 2u);
+    EXPECT_EQ(sb.visibility_triangles, sa.visibility_triangles);
+    EXPECT_EQ(sa.elements, sb.elements);
+    EXPECT_NEAR(sa.energy_absorbed_w, sb.energy_absorbed_w, 1e-3 * 10.0);
+    EXPECT_NEAR(sa.ambient, sb.ambient, 1e-3 * sa.ambient);
+    EXPECT_LT(sb.energy_escaped_w, 1e-4 * 10.0);
+    expect_energy_balance(b);
+}
+
 // Small faces are grouped in cubes that shoot from one member's point, and a member that
 // point cannot see must not have its light shot from there: a partition closes a dark
 // compartment off the lit room, and a small face on each side of it lies in one cube (the

@@ -68,4 +68,15 @@ struct DmStats {
 std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
                                        const DmOptions& options, DmStats* stats = nullptr);
 
+/// The region's union triangulated from its outline alone, for visibility (the
+/// interreflection's hemicubes, where a finely meshed wall then costs what its outline costs):
+/// the boundary edges (those of an odd number of triangles), each run of boundary vertices
+/// within `tolerance` metres of one straight line made one edge, a constrained Delaunay
+/// triangulation of those edges, and its faces inside (odd nesting), counter-clockwise seen from
+/// the normal. Outline vertices keep their exact positions; none is added. Returns an empty
+/// mesh when that is not fewer triangles than the region's own, or not the same area to a
+/// relative 1e-6 (overlapping or folded triangles, outlines that cross once merged): the
+/// caller then keeps the region's triangles.
+MeshedRegion outline_triangulation(const PlanarRegion& region, double tolerance);
+
 }  // namespace abrad::radiosity

@@ -105,7 +105,10 @@ struct IndirectSolution {
     visdb::Rgb at(std::uint32_t region, const glm::dvec3& p) const;
 
     // What the solution did
-    std::size_t pieces = 0;              ///< parts of triangles in elements (triangle ∩ cell)
+    std::size_t pieces = 0;  ///< parts of triangles in elements (triangle ∩ cell)
+    /// Triangles the hemicubes rasterize: each planar region's outline triangulation where it
+    /// has fewer than the region (dm_mesh.h outline_triangulation), else its own
+    std::size_t visibility_triangles = 0;
     std::size_t shooters = 0;            ///< groups of elements that shoot as one
     std::size_t shots = 0;               ///< shooter shots (the lights' not counted)
     std::size_t rows_computed = 0;       ///< hemicubes placed at shooters
@@ -168,6 +171,18 @@ void validate(const IndirectOptions& options);
 /// fraction left (IndirectOptions::converge) is below `converge`. Throws InputError when there
 /// is no light. Progress labels carry the fraction left: "interreflection: shots (left 1.2%,
 /// target 0.5%)".
+/// Each planar region as few triangles as its outline allows (dm_mesh.h
+/// outline_triangulation), where that is fewer than its own, for what only asks where the
+/// surfaces are: the interreflection's hemicubes, the exact shadow queries. The union of a
+/// region's outline patches is the union of its patches, and each has its opacity.
+struct Outlines {
+    std::vector<Patch> patches;
+    std::vector<std::uint32_t> region;  ///< per patch
+    std::vector<std::uint32_t> source;  ///< per patch: the input patch it is, or kNoPatch
+};
+Outlines outline_patches(std::span<const Patch> patches, std::span<const std::uint32_t> region,
+                         std::span<const glm::dvec3> region_normal);
+
 IndirectSolution solve_indirect(const IndirectInput& input, const IndirectOptions& options,
                                 const ProgressFn& progress = {});
 
@@ -194,7 +209,8 @@ class IndirectField {
     std::vector<visdb::Rgb> m_reflected;
     std::optional<Bvh> m_bvh;                     // over m_patches: probes cost what they see
     static constexpr double kOccluderArea = 0.1;  // m²: patches rasterized first (shoot.h)
-    std::vector<std::uint32_t> m_occluders;
+    static constexpr double kOccluderNear = 5.0;  // m: of those, drawn nearest first
+    std::optional<Occluders> m_occluders;
     Hemicube m_hemicube;
 };
 

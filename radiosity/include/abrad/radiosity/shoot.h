@@ -36,6 +36,20 @@ class Targets {
     virtual std::uint32_t at(std::uint32_t patch, const glm::dvec3& x) const = 0;
 };
 
+/// Patches a culling hemicube rasterizes before its walk (large_occluders: walls and slabs):
+/// those within `near` of the shooter (per axis) nearest first, the others through their BVH,
+/// front to back, skipping those hidden behind what is drawn. So a row does not pay for every
+/// wall of the building.
+struct Occluders {
+    std::vector<std::uint32_t> ids;  ///< patch indices, ascending
+    Bvh bvh;                         ///< over their boxes: item k is patch ids[k]
+    double near = 0.0;               ///< metres
+};
+
+/// A shooter's large occluders within this many element sides (the room around it: 5 m at
+/// the default 0.5 m elements) are drawn nearest first (Occluders::near).
+inline constexpr double kNearOccluders = 10.0;
+
 struct ShootOptions {
     Visibility method = Visibility::ABuffer;
     int subpixels = 8;      ///< A-buffer mask side S: 4, 8 or 16 (fine masks are 2S)
@@ -63,10 +77,11 @@ struct ShootOptions {
     /// When set (with `sparse`, without occlusion lists), `hits` are by target: each
     /// fragment's form factor goes to the target holding the point its pixel sees. Not owned.
     const Targets* targets = nullptr;
-    /// With `bvh`: patches rasterized before the walk, ascending (large_occluders: walls and
-    /// slabs), so that the pixels they close hide what lies behind them from the start, not
-    /// only once the walk reaches them. Form factors are unchanged. Not owned.
-    std::span<const std::uint32_t> occluders_first{};
+    /// With `bvh`: patches rasterized before the walk (large_occluders: walls and slabs),
+    /// walked front to back through their own BVH, so that the pixels they close hide what
+    /// lies behind them from the start, not only once the walk reaches them. Form factors are
+    /// unchanged. Not owned.
+    const Occluders* occluders_first = nullptr;
     /// A piece of a patch that holds none of a pixel's S × S samples gets a 2S × 2S mask of
     /// its own (the paper's rule for undersampled patches). False (with `sparse` or
     /// `targets`): one S × S sample, the one holding its centroid, translucent by its area
@@ -127,8 +142,9 @@ ShootResult shoot(const ShooterFrame& frame, std::span<const Patch> patches,
                   const Hemicube& hemicube, const ShootOptions& options);
 
 /// The opaque patches of at least `min_area` (squared units of the coordinates), ascending:
-/// the occluders a culling hemicube rasterizes first (ShootOptions::occluders_first).
-std::vector<std::uint32_t> large_occluders(std::span<const Patch> patches, double min_area);
+/// the occluders a culling hemicube rasterizes first (ShootOptions::occluders_first), those
+/// within `near` nearest first.
+Occluders large_occluders(std::span<const Patch> patches, double min_area, double near);
 
 std::string to_string(Visibility method);
 

@@ -104,11 +104,12 @@ struct DiscontinuityStats {
 /// Interreflection (progressive refinement on elements).
 struct InterreflectionStats {
     std::uint64_t elements = 0;
-    std::uint64_t pieces = 0;    ///< parts of triangles in elements (triangle ∩ cell)
-    std::uint64_t shooters = 0;  ///< groups of elements that shoot as one
-    std::uint64_t shots = 0;     ///< shooter shots
-    std::uint64_t rows = 0;      ///< hemicubes placed at shooters
-    std::uint64_t bounces = 0;   ///< complete bounces (bounce mode)
+    std::uint64_t pieces = 0;                ///< parts of triangles in elements (triangle ∩ cell)
+    std::uint64_t visibility_triangles = 0;  ///< triangles the hemicubes rasterize (outlines)
+    std::uint64_t shooters = 0;              ///< groups of elements that shoot as one
+    std::uint64_t shots = 0;                 ///< shooter shots
+    std::uint64_t rows = 0;                  ///< hemicubes placed at shooters
+    std::uint64_t bounces = 0;               ///< complete bounces (bounce mode)
     double unshot_fraction = 0.0;
     double ambient = 0.0;           ///< mean over channels of the ambient irradiance
     double mean_at_vertices = 0.0;  ///< mean indirect irradiance added at the output vertices
@@ -195,6 +196,7 @@ template <class I, class F>
 void indirect_keys(I& i, F& f) {
     f("indirect_elements", i.elements);
     f("indirect_pieces", i.pieces);
+    f("indirect_visibility_triangles", i.visibility_triangles);
     f("indirect_shooters", i.shooters);
     f("indirect_shots", i.shots);
     f("indirect_rows", i.rows);
