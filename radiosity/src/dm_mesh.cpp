@@ -571,6 +571,28 @@ double copy_for_refinement(
     return scale;
 }
 
+/// Nesting parity of every face (FInfo::parity, -1 before): 0 for the infinite faces, flipped
+/// across each edge where `toggles(face, i)`. The triangulation must be two-dimensional.
+template <typename Cdt, typename Toggles>
+void flood_parity(Cdt& cdt, Toggles&& toggles) {
+    std::vector<typename Cdt::Face_handle> queue;
+    auto fc = cdt.incident_faces(cdt.infinite_vertex()), done = fc;
+    do {
+        fc->info().parity = 0;
+        queue.push_back(fc);
+    } while (++fc != done);
+    while (!queue.empty()) {
+        const typename Cdt::Face_handle f = queue.back();
+        queue.pop_back();
+        for (int i = 0; i < 3; ++i) {
+            const typename Cdt::Face_handle g = f->neighbor(i);
+            if (g->info().parity >= 0) continue;
+            g->info().parity = f->info().parity ^ (toggles(f, i) ? 1 : 0);
+            queue.push_back(g);
+        }
+    }
+}
+
 /// Triangulates one region from its state; refines when min_angle_deg > 0.
 MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_angle_deg,
                     double h) {
@@ -631,24 +653,7 @@ MeshRun triangulate(const RegionSetup& setup, const RegionState& in, double min_
     };
 
     // Flood-fill parity from the infinite faces
-    if (cdt.dimension() == 2) {
-        std::vector<Cdt1::Face_handle> queue;
-        auto fc = cdt.incident_faces(cdt.infinite_vertex()), done = fc;
-        do {
-            fc->info().parity = 0;
-            queue.push_back(fc);
-        } while (++fc != done);
-        while (!queue.empty()) {
-            const Cdt1::Face_handle f = queue.back();
-            queue.pop_back();
-            for (int i = 0; i < 3; ++i) {
-                const Cdt1::Face_handle g = f->neighbor(i);
-                if (g->info().parity >= 0) continue;
-                g->info().parity = f->info().parity ^ (toggles(f, i) ? 1 : 0);
-                queue.push_back(g);
-            }
-        }
-    }
+    if (cdt.dimension() == 2) flood_parity(cdt, toggles);
 
     // Boundary chains (vertices along each boundary edge, crossings included)
     std::vector<std::vector<Cdt1::Vertex_handle>> chains(setup.boundary.size());
@@ -1265,23 +1270,7 @@ MeshedRegion outline_triangulation(const PlanarRegion& region, double tolerance)
     if (cdt.dimension() < 2) return {};
 
     // Inside: an odd number of outline edges crossed from the infinite faces
-    for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->info().parity = -1;
-    std::vector<CdtO::Face_handle> queue;
-    auto fc = cdt.incident_faces(cdt.infinite_vertex()), done = fc;
-    do {
-        fc->info().parity = 0;
-        queue.push_back(fc);
-    } while (++fc != done);
-    while (!queue.empty()) {
-        const CdtO::Face_handle f = queue.back();
-        queue.pop_back();
-        for (int i = 0; i < 3; ++i) {
-            const CdtO::Face_handle g = f->neighbor(i);
-            if (g->info().parity >= 0) continue;
-            g->info().parity = f->info().parity ^ (f->is_constrained(i) ? 1 : 0);
-            queue.push_back(g);
-        }
-    }
+    flood_parity(cdt, [](CdtO::Face_handle f, int i) { return f->is_constrained(i); });
 
     MeshedRegion out;
     std::unordered_map<std::uint32_t, std::uint32_t> local;
