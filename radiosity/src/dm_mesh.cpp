@@ -1175,11 +1175,13 @@ std::vector<std::array<std::uint32_t, 2>> outline_edges(
             e = es[0] == e ? es[1] : es[0];
             if (used[e]) break;
         }
-        // The fewest runs, greedily: each as long as its vertices stay near its chord
+        // The fewest runs, greedily: each as long as its vertices stay near its chord (and at
+        // most kMaxRun vertices long: the test is quadratic in a run's length)
+        constexpr std::size_t kMaxRun = 512;
         std::size_t i = 0;
         while (i + 1 < chain.size()) {
             std::size_t j = i + 1;
-            while (j + 1 < chain.size()) {
+            while (j + 1 < chain.size() && j - i < kMaxRun) {
                 bool straight = true;
                 for (std::size_t q = i + 1; q <= j && straight; ++q)
                     straight =

@@ -624,6 +624,25 @@ TEST(Outline, ACurvedOutlineKeepsEveryCorner) {
     EXPECT_EQ(m.positions.size(), 64u);  // the rim, not the centre
 }
 
+TEST(Outline, ALongStraightEdgeIsCutIntoLongRuns) {
+    // A strip of 1,500 cells along x: two edges of 1,501 collinear vertices each, merged in
+    // runs of at most 512 vertices (a run's test is quadratic in its length)
+    PlanarRegion r;
+    r.normal = {0, 0, 1};
+    for (int i = 0; i <= 1500; ++i) {
+        r.positions.push_back({0.01 * i, 0.0, 0.0});
+        r.positions.push_back({0.01 * i, 0.01, 0.0});
+    }
+    for (std::uint32_t i = 0; i < 1500; ++i) {
+        r.triangles.push_back({2 * i, 2 * i + 2, 2 * i + 3});
+        r.triangles.push_back({2 * i, 2 * i + 3, 2 * i + 1});
+    }
+    const MeshedRegion m = outline_triangulation(r, 1e-9);
+    expect_outline_of(r, m);
+    EXPECT_LE(m.positions.size(), 10u);
+    EXPECT_LE(m.triangles.size(), 8u);
+}
+
 TEST(Outline, NothingToGainOrOverlapsKeepTheTriangles) {
     // Two triangles already
     EXPECT_TRUE(outline_triangulation(unit_square(), 1e-9).triangles.empty());
