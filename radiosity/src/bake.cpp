@@ -183,6 +183,9 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     // Build the bake mesh and its planar regions
     BakeGeometry geometry = build_bake_mesh(scene, &stats);
     Regions regions = make_regions(geometry);
+    if (options.dm || options.bounces != 0)
+        regions.outlines =
+            outline_patches(geometry.patches, regions.of_triangle, region_normals(regions));
     const Bvh bvh(geometry.patches);
     const Hemicube hemicube(options.resolution);  // the lights' shots, and patch shading
 

@@ -186,4 +186,11 @@ Regions make_regions(const BakeGeometry& g) {
     return r;
 }
 
+std::vector<glm::dvec3> region_normals(const Regions& regions) {
+    std::vector<glm::dvec3> n;
+    n.reserve(regions.planar.size());
+    for (const PlanarRegion& r : regions.planar) n.push_back(r.normal);
+    return n;
+}
+
 }  // namespace abrad::radiosity

@@ -174,14 +174,17 @@ class RegionShafts {
                  const RegionSources& sources, double reach, double tile)
         : m_g(g),
           m_bvh(bvh),
-          m_occluders(outline_patches(g.patches, regions.of_triangle, normals_of(regions)).patches),
+          m_occluders(regions.outlines.patches),
           m_occluder_bvh(m_occluders),
           m_regions(regions),
           m_sources(sources),
           m_reach(reach),
           m_tile(tile),
           m_once(std::make_unique<std::once_flag[]>(regions.planar.size())),
-          m_frames(regions.planar.size()) {}
+          m_frames(regions.planar.size()) {
+        ABRAD_DCHECK(g.patches.empty() || !m_occluders.empty(),
+                     "the bake makes the regions' outlines before meshing");
+    }
 
     // The exact direct light at x (unit normal n) of region r: its light triangles (their
     // occluder candidates from x's tile, or a query per point) and its luminaires.
@@ -296,17 +299,11 @@ class RegionShafts {
         tile.built = true;
     }
 
-    static std::vector<glm::dvec3> normals_of(const Regions& regions) {
-        std::vector<glm::dvec3> n;
-        for (const PlanarRegion& r : regions.planar) n.push_back(r.normal);
-        return n;
-    }
-
     const BakeGeometry& m_g;
     const Bvh& m_bvh;
-    // The tiles' occluder candidates: each region from its outline (indirect.h Outlines), the
+    // The tiles' occluder candidates: each region from its outline (Regions::outlines), the
     // same surfaces in fewer triangles, so fewer shadows to subtract from each light
-    const std::vector<Patch> m_occluders;
+    const std::span<const Patch> m_occluders;
     const Bvh m_occluder_bvh;
     const Regions& m_regions;
     const RegionSources& m_sources;

@@ -38,7 +38,7 @@ using Clock = std::chrono::steady_clock;
 using visdb::channel_mean;
 
 // Outline vertices this close to a straight run of the outline (a fraction of the region's
-// size) are dropped from the hemicubes' patches (make_visibility)
+// size) are dropped (outline_patches)
 constexpr double kOutlineTolerance = 1e-7;
 
 // One entry of a form-factor row: the element, and the fraction of the shooter's power it
@@ -512,7 +512,9 @@ class Solver {
     // keep their triangles, and their targets (`whole`, `main`: per triangle).
     void make_visibility(const std::vector<std::uint32_t>& whole,
                          const std::vector<std::uint32_t>& main) {
-        Outlines o = outline_patches(m_in.patches, m_in.region, m_region_normal);
+        Outlines own;
+        if (!m_in.outlines) own = outline_patches(m_in.patches, m_in.region, m_region_normal);
+        const Outlines& o = m_in.outlines ? *m_in.outlines : own;
         const double size = m_options.element_size;
         std::vector<std::uint32_t> vis_whole(o.patches.size()), vis_main(o.patches.size());
         // Off the elements (rounding at an outline): the element of a triangle of the region
@@ -540,8 +542,8 @@ class Solver {
             vis_whole[k] = lo == hi ? m_sol.element_at(r, lo.x, lo.y) : kNoPatch;
             vis_main[k] = at != IndirectSolution::kNoElement ? at : fallback[r];
         }
-        m_vis = std::move(o.patches);
-        m_vis_region = std::move(o.region);
+        m_vis = o.patches;
+        m_vis_region = o.region;
         m_sol.visibility_triangles = m_vis.size();
         m_targets = std::make_unique<ElementTargets>(m_sol, m_vis_region, std::move(vis_whole),
                                                      std::move(vis_main));

@@ -15,15 +15,15 @@ namespace abrad::radiosity {
 IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
                               const BakeOptions& options, visdb::BakeStats* stats,
                               const ProgressFn& progress) {
-    std::vector<glm::dvec3> region_normal;
-    region_normal.reserve(regions.planar.size());
-    for (const PlanarRegion& r : regions.planar) region_normal.push_back(r.normal);
-    const IndirectInput input{.patches = g.patches,
-                              .reflectance = g.reflectance,
-                              .emittance = g.emittance,
-                              .region = regions.of_triangle,
-                              .region_normal = region_normal,
-                              .luminaires = g.luminaires};
+    const std::vector<glm::dvec3> region_normal = region_normals(regions);
+    const IndirectInput input{
+        .patches = g.patches,
+        .reflectance = g.reflectance,
+        .emittance = g.emittance,
+        .region = regions.of_triangle,
+        .region_normal = region_normal,
+        .luminaires = g.luminaires,
+        .outlines = regions.outlines.patches.empty() ? nullptr : &regions.outlines};
     const IndirectOptions io{.bounces = std::max(options.bounces, 0),
                              .converge = options.converge,
                              .element_size = options.element_size,

@@ -74,6 +74,9 @@ struct Regions {
     std::vector<std::uint32_t> surface;      ///< per region
     std::vector<char> emitter;               ///< per region
     std::vector<std::uint32_t> of_triangle;  ///< per bake triangle
+    /// Each region from its outline (outline_patches), for the DM's exact shadow queries and
+    /// the interreflection's hemicubes; made by the bake when one of them runs, else empty
+    Outlines outlines;
 };
 
 /// What the lights' shots leave for the later stages.
@@ -111,6 +114,9 @@ BakeGeometry describe_mesh(const visdb::Scene& scene, visdb::BakeMesh mesh);
 /// The planar regions of `g` (its vertices are already split by surface and normal, so
 /// connected components are planar).
 Regions make_regions(const BakeGeometry& g);
+
+/// The unit normal of each planar region.
+std::vector<glm::dvec3> region_normals(const Regions& regions);
 
 /// Shoots from every light triangle (in parallel). Fills stats->shoot, the light and power
 /// figures, and stats->exact_shade (exact shading without DM) or the shadow part of stats->dm.

@@ -36,6 +36,18 @@ class Cluster;
 
 /// The scene as the interreflection solver sees it. All spans are per triangle (patch)
 /// except `region_normal`, which is per region; coordinates in metres.
+/// Each planar region as few triangles as its outline allows (dm_mesh.h
+/// outline_triangulation), where that is fewer than its own, for what only asks where the
+/// surfaces are: the interreflection's hemicubes, the exact shadow queries. The union of a
+/// region's outline patches is the union of its patches, and each has its opacity.
+struct Outlines {
+    std::vector<Patch> patches;
+    std::vector<std::uint32_t> region;  ///< per patch
+    std::vector<std::uint32_t> source;  ///< per patch: the input patch it is, or kNoPatch
+};
+Outlines outline_patches(std::span<const Patch> patches, std::span<const std::uint32_t> region,
+                         std::span<const glm::dvec3> region_normal);
+
 struct IndirectInput {
     std::span<const Patch> patches;
     std::span<const visdb::Rgb> reflectance;
@@ -45,6 +57,9 @@ struct IndirectInput {
     /// Point sources (point_source.h): each shoots first, like a light triangle, through two
     /// hemicubes weighted by its web, so its flux feeds the interreflection.
     std::span<const visdb::Luminaire> luminaires = {};
+    /// outline_patches of these patches and regions when the caller has them (the bake
+    /// shares them with its exact shadow queries); made here otherwise. Not owned.
+    const Outlines* outlines = nullptr;
 };
 
 struct IndirectOptions {
@@ -171,18 +186,6 @@ void validate(const IndirectOptions& options);
 /// fraction left (IndirectOptions::converge) is below `converge`. Throws InputError when there
 /// is no light. Progress labels carry the fraction left: "interreflection: shots (left 1.2%,
 /// target 0.5%)".
-/// Each planar region as few triangles as its outline allows (dm_mesh.h
-/// outline_triangulation), where that is fewer than its own, for what only asks where the
-/// surfaces are: the interreflection's hemicubes, the exact shadow queries. The union of a
-/// region's outline patches is the union of its patches, and each has its opacity.
-struct Outlines {
-    std::vector<Patch> patches;
-    std::vector<std::uint32_t> region;  ///< per patch
-    std::vector<std::uint32_t> source;  ///< per patch: the input patch it is, or kNoPatch
-};
-Outlines outline_patches(std::span<const Patch> patches, std::span<const std::uint32_t> region,
-                         std::span<const glm::dvec3> region_normal);
-
 IndirectSolution solve_indirect(const IndirectInput& input, const IndirectOptions& options,
                                 const ProgressFn& progress = {});
 

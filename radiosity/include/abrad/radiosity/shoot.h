@@ -77,10 +77,10 @@ struct ShootOptions {
     /// When set (with `sparse`, without occlusion lists), `hits` are by target: each
     /// fragment's form factor goes to the target holding the point its pixel sees. Not owned.
     const Targets* targets = nullptr;
-    /// With `bvh`: patches rasterized before the walk (large_occluders: walls and slabs),
-    /// walked front to back through their own BVH, so that the pixels they close hide what
-    /// lies behind them from the start, not only once the walk reaches them. Form factors are
-    /// unchanged. Not owned.
+    /// With `bvh`: patches rasterized before the walk (large_occluders: walls and slabs; the
+    /// near ones nearest first, the others through their own BVH, Occluders), so that the
+    /// pixels they close hide what lies behind them from the start, not only once the walk
+    /// reaches them. Form factors are unchanged. Not owned.
     const Occluders* occluders_first = nullptr;
     /// A piece of a patch that holds none of a pixel's S × S samples gets a 2S × 2S mask of
     /// its own (the paper's rule for undersampled patches). False (with `sparse` or
