@@ -24,8 +24,10 @@
 #include <optional>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
+#include "abrad/convert/photometry.h"
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/indirect.h"
 #include "mesh_checks.h"
@@ -160,8 +162,7 @@ std::vector<Point> area_source_points() {
 
 // A luminaire at (0, 0, h) with a rotationally symmetric type C web I(γ) (γ = 0..180° in 1°
 // steps) over a black 10 × 10 m floor ([-5, 5]², 1 m cells), in lux.
-template <class Web>
-visdb::Scene point_source_scene(double h, Web intensity) {
+visdb::Scene point_source_scene(double h, visdb::PhotometricWeb web) {
     visdb::Scene s;
     s.emittance_unit = "lm/m2";
     const auto black = add_material(s, "black", 0.0);
@@ -169,14 +170,21 @@ visdb::Scene point_source_scene(double h, Web intensity) {
         facing("floor", black, {-5, -5, 0}, {10, 0, 0}, {0, 10, 0}, 10, {0, 0, 1}));
     visdb::Luminaire l;
     l.name = "source";
-    l.web.horizontal = {0.0};
-    for (int g = 0; g <= 180; ++g) {
-        l.web.vertical.push_back(g);
-        l.web.candela.push_back(intensity(g * kPi / 180.0));
-    }
+    l.web = std::move(web);
     l.position = {0.0, 0.0, h};
     s.luminaires.push_back(l);
     return s;
+}
+
+template <class Web>
+visdb::Scene point_source_scene(double h, Web intensity) {
+    visdb::PhotometricWeb web;
+    web.horizontal = {0.0};
+    for (int g = 0; g <= 180; ++g) {
+        web.vertical.push_back(g);
+        web.candela.push_back(intensity(g * kPi / 180.0));
+    }
+    return point_source_scene(h, std::move(web));
 }
 
 // Floor points (x, y) from the foot of the source, facing up; E from `reference(r)`. The
@@ -225,6 +233,66 @@ std::vector<Point> cosine_web_points() {
 TEST(Cie171, CosineWebCosToTheFourth) {
     const visdb::Scene scene = cosine_web_scene();
     check(measure("cosine web", scene, bake(scene, BakeOptions{}), cosine_web_points()));
+}
+
+// The standard's own case 5.2. Its table (111.11, 105.21, 90.02, 71.11, 99.73, 85.64, 68.06,
+// 74.36, 59.98, 49.39 lx) is, within 0.03 %, I0·cos⁴θ/h² with I0 = 1000 cd and h = 3 m
+// at the points (0.5 i, 0.5 j) m, 0 <= j <= i <= 3, taken row by row: a source whose
+// intensity is 1000·cos γ cd (a uniform 1000 cd web gives 106.64 lx, not 105.21, at 0.5 m).
+// The web comes from an IES LM-63-2002 file read by abrad's reader, as a user gives it.
+std::string cosine_ies_text(double i0) {
+    std::string text =
+        "IESNA:LM-63-2002\n[TEST] CIE 171:2006 case 5.2 source, I = I0 cos(gamma)\n"
+        "TILT=NONE\n1 -1 1 181 1 1 2 0 0 0\n1 1 0\n";
+    char number[32];
+    for (int g = 0; g <= 180; ++g) {
+        std::snprintf(number, sizeof number, "%d%s", g, g % 10 == 9 || g == 180 ? "\n" : " ");
+        text += number;
+    }
+    text += "0\n";
+    for (int g = 0; g <= 180; ++g) {
+        const double c = g <= 90 ? i0 * std::cos(g * kPi / 180.0) : 0.0;
+        std::snprintf(number, sizeof number, "%.9f%s", std::max(c, 0.0),
+                      g % 6 == 5 || g == 180 ? "\n" : " ");
+        text += number;
+    }
+    return text;
+}
+
+TEST(Cie171, Case52TheStandardsTable) {
+    const convert::PhotometricFile file = convert::read_ies(cosine_ies_text(1000.0), "case52.ies");
+    ASSERT_NEAR(file.flux(), kPi * 1000.0, 1e-3 * kPi * 1000.0);  // ∫ I0 cos γ dω = π I0
+    const visdb::Scene scene = point_source_scene(3.0, file.web);
+    // The standard's published values, in its table's order
+    constexpr std::array<double, 10> kTable = {111.11, 105.21, 90.02, 71.11, 99.73,
+                                               85.64,  68.06,  74.36, 59.98, 49.39};
+    constexpr double kPublished52 = 0.005;  // the criterion for this case: 0.5 % each
+    std::vector<Point> points;
+    std::size_t k = 0;
+    for (int j = 0; j <= 3; ++j) {
+        for (int i = j; i <= 3; ++i, ++k) {
+            const double x = 0.5 * i, y = 0.5 * j;
+            const double c = 3.0 / std::sqrt(9.0 + x * x + y * y);
+            const double closed = 1000.0 * std::pow(c, 4) / 9.0;
+            // The table is that closed form (to 0.027 % at worst: its own rounding and steps)
+            ASSERT_NEAR(kTable[k], closed, 3e-4 * closed) << x << " " << y;
+            points.push_back({label("floor", x, y),
+                              {dvec3(x, y, 0.0), dvec3(0, 0, 1)},
+                              kTable[k],
+                              kPublished52,
+                              i % 2 == 0 && j % 2 == 0 ? 2e-3 : 0.0});
+        }
+    }
+    const std::vector<Row> rows =
+        measure("5.2 the standard's table", scene, bake(scene, BakeOptions{}), points);
+    check(rows);
+    // And the probe against the closed form itself, well inside the table's rounding: the
+    // web's 1° bilinear steps
+    for (const Row& r : rows) {
+        const dvec3 x = r.point->p.x;
+        const double c = 3.0 / std::sqrt(9.0 + glm::dot(x, x));
+        EXPECT_NEAR(r.probe, 1000.0 * std::pow(c, 4) / 9.0, 2e-4 * r.probe) << r.point->name;
+    }
 }
 
 TEST(Cie171, Case53AreaSource) {
