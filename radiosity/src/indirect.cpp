@@ -512,9 +512,9 @@ class Solver {
     // keep their triangles, and their targets (`whole`, `main`: per triangle).
     void make_visibility(const std::vector<std::uint32_t>& whole,
                          const std::vector<std::uint32_t>& main) {
-        Outlines own;
-        if (!m_in.outlines) own = outline_patches(m_in.patches, m_in.region, m_region_normal);
-        const Outlines& o = m_in.outlines ? *m_in.outlines : own;
+        if (!m_in.outlines)
+            m_own_outlines = outline_patches(m_in.patches, m_in.region, m_region_normal);
+        const Outlines& o = m_in.outlines ? *m_in.outlines : m_own_outlines;
         const double size = m_options.element_size;
         std::vector<std::uint32_t> vis_whole(o.patches.size()), vis_main(o.patches.size());
         // Off the elements (rounding at an outline): the element of a triangle of the region
@@ -543,9 +543,8 @@ class Solver {
             vis_main[k] = at != IndirectSolution::kNoElement ? at : fallback[r];
         }
         m_vis = o.patches;
-        m_vis_region = o.region;
         m_sol.visibility_triangles = m_vis.size();
-        m_targets = std::make_unique<ElementTargets>(m_sol, m_vis_region, std::move(vis_whole),
+        m_targets = std::make_unique<ElementTargets>(m_sol, o.region, std::move(vis_whole),
                                                      std::move(vis_main));
     }
 
@@ -1108,9 +1107,10 @@ class Solver {
     const Hemicube m_hemicube, m_row_hemicube;
     ShootOptions m_shoot;
     const std::vector<glm::dvec3> m_region_normal;
-    // The hemicubes' patches and their regions (make_visibility); the BVH is over them
-    std::vector<Patch> m_vis;
-    std::vector<std::uint32_t> m_vis_region;
+    // The hemicubes' patches (make_visibility): the input's outlines, or the solver's own
+    // when the input has none; the BVH is over them
+    Outlines m_own_outlines;
+    std::span<const Patch> m_vis;
     std::unique_ptr<Bvh> m_bvh;
     // Per shooter, the member it shoots from when split_unseen_members chose it (else
     // kNoPatch: point_of chooses)
