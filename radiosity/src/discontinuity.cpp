@@ -523,10 +523,21 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     const DmOptions dm_options{.min_angle_deg = options.dm_min_angle, .merge_distance = tolerance};
     IrradianceCache cache;
     DiscontinuityMesh out;
-    // Every rank meshes every region (the mesher makes neighbouring regions conform); the
-    // exact evaluations, most of the work, are shared over the ranks by region (cluster.h)
+    // The meshing and the exact evaluations are shared over the ranks by region (cluster.h);
+    // the ranks exchange what makes neighbouring regions conform, and every rank gets the
+    // whole mesh
     Cluster alone;
     Cluster& cluster = options.cluster ? *options.cluster : alone;
+    MeshSharing sharing{
+        .mine =
+            [&](std::span<const double> cost) {
+                std::vector<char> mine(cost.size(), 0);
+                for (const std::uint32_t r : cluster.share(cost)) mine[r] = 1;
+                return mine;
+            },
+        .all_gather =
+            [&](std::span<const std::byte> bytes) { return cluster.all_gather(bytes, "mesh"); },
+        .seconds = {}};
     for (int round = 0;; ++round) {
         // Each step reports its own work: regions meshed, vertices evaluated, triangles refined
         const std::string of_rounds = " (round " + std::to_string(round + 1) + " of at most " +
@@ -534,7 +545,8 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
         const auto tm = Clock::now();
         if (progress) progress("mesh: regions" + of_rounds, 0, regions.planar.size());
         DmStats mesher;
-        const std::vector<MeshedRegion> meshed = mesh_regions(regions.planar, dm_options, &mesher);
+        const std::vector<MeshedRegion> meshed = mesh_regions(
+            regions.planar, dm_options, &mesher, cluster.size() > 1 ? &sharing : nullptr);
         st.seconds_mesh += seconds_since(tm);
         if (round == 0) {
             st.constraints_dropped = mesher.constraints_dropped;

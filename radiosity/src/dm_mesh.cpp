@@ -30,8 +30,10 @@
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <glm/geometric.hpp>
 #include <map>
 #include <numeric>
@@ -964,10 +966,60 @@ void canonical_order(MeshedRegion& m) {
     m = std::move(sorted);
 }
 
+// Bytes for MeshSharing::all_gather: trivially copyable values and vectors of them, appended
+// and read back in the same order.
+class Bytes {
+  public:
+    template <typename T>
+    void put(const T& value) {
+        const auto* p = reinterpret_cast<const std::byte*>(&value);
+        m_bytes.insert(m_bytes.end(), p, p + sizeof(T));
+    }
+    template <typename T>
+    void put_all(const std::vector<T>& values) {
+        put(static_cast<std::uint64_t>(values.size()));
+        const auto* p = reinterpret_cast<const std::byte*>(values.data());
+        m_bytes.insert(m_bytes.end(), p, p + values.size() * sizeof(T));
+    }
+    std::span<const std::byte> view() const { return m_bytes; }
+
+  private:
+    std::vector<std::byte> m_bytes;
+};
+
+class Reader {
+  public:
+    explicit Reader(std::span<const std::byte> bytes) : m_bytes(bytes) {}
+    bool done() const { return m_at == m_bytes.size(); }
+    template <typename T>
+    T get() {
+        T value;
+        take(&value, sizeof(T));
+        return value;
+    }
+    template <typename T>
+    std::vector<T> get_all() {
+        std::vector<T> values(get<std::uint64_t>());
+        take(values.data(), values.size() * sizeof(T));
+        return values;
+    }
+
+  private:
+    void take(void* to, std::size_t n) {
+        if (n > m_bytes.size() - m_at)
+            throw std::logic_error("mesh_regions: a process's exchange ended early");
+        if (n > 0) std::memcpy(to, m_bytes.data() + m_at, n);
+        m_at += n;
+    }
+    std::span<const std::byte> m_bytes;
+    std::size_t m_at = 0;
+};
+
 }  // namespace
 
 std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
-                                       const DmOptions& options, DmStats* stats) {
+                                       const DmOptions& options, DmStats* stats,
+                                       MeshSharing* sharing) {
     // Check the options and the regions
     if (!(options.min_angle_deg >= 0.0 && options.min_angle_deg <= 20.7))
         throw std::invalid_argument("mesh_regions: min_angle_deg " +
@@ -1054,10 +1106,32 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
             edges_through(p, [&](std::uint32_t r, std::uint32_t e) { hits[r].push_back({e, p}); });
     }
 
+    // Which regions this process meshes: all of them alone; shared, by the last call's
+    // measured seconds or, at first, by size
+    std::vector<char> mine(n, 1);
+    if (sharing) {
+        std::vector<double> cost(n, 0.0);
+        for (std::size_t r = 0; r < n; ++r)
+            cost[r] = sharing->seconds.size() == n
+                          ? sharing->seconds[r] + 1e-6
+                          : 1.0 + double(regions[r].triangles.size()) +
+                                4.0 * double(regions[r].constraints.size()) +
+                                double(regions[r].points.size());
+        mine = sharing->mine(cost);
+    }
+    const auto all_gather = [&](const Bytes& bytes) {
+        return sharing ? sharing->all_gather(bytes.view())
+                       : std::vector<std::byte>(bytes.view().begin(), bytes.view().end());
+    };
+
     std::vector<RegionState> states(n);
     std::vector<MeshedRegion> outputs(n);
     std::vector<PosSet> announced(n);
     std::vector<LocalStats> local(n);
+    std::vector<double> seconds(n, 0.0);
+    // Every region's boundary vertices, per boundary edge, on every process (from the process
+    // that meshes it), for the conformity test below
+    std::vector<std::vector<PosSet>> on_edge(n);
     std::vector<std::size_t> dirty;
     for (std::size_t r = 0; r < n; ++r)
         if (!regions[r].triangles.empty()) dirty.push_back(r);
@@ -1065,8 +1139,15 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
     std::size_t round = 0;
     for (; round < kMaxRounds && !dirty.empty(); ++round) {
         const double angle = round < kRefineRounds ? options.min_angle_deg : 0.0;
+        // What this process's regions announce: their boundary vertices not announced before
+        std::vector<std::vector<SplitHit>> announce(n);
         tbb::parallel_for(std::size_t{0}, dirty.size(), [&](std::size_t k) {
             const std::size_t r = dirty[k];
+            if (!mine[r]) {
+                pending[r].clear();
+                return;
+            }
+            const auto t0 = std::chrono::steady_clock::now();
             if (round == 0) {
                 states[r] =
                     build_initial(regions[r], setups[r], hits[r], h, local[r], announced[r]);
@@ -1091,35 +1172,83 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
             MeshRun run = triangulate(setups[r], states[r], angle, h);
             states[r] = std::move(run.next);
             outputs[r] = std::move(run.out);
+            const RegionState& st = states[r];
+            for (std::size_t e = 0; e < st.edge_splits.size(); ++e)
+                for (std::uint32_t id : st.edge_splits[e])
+                    if (announced[r].insert(key_of(st.verts[id].pos)).second)
+                        announce[r].push_back({static_cast<std::uint32_t>(e), st.verts[id].pos});
+            seconds[r] +=
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         });
+
+        // Each meshed region's boundary vertices and announcements, to every process
+        Bytes sent;
+        for (const std::size_t r : dirty) {
+            if (!mine[r]) continue;
+            const RegionState& st = states[r];
+            sent.put(static_cast<std::uint32_t>(r));
+            sent.put(static_cast<std::uint32_t>(st.edge_splits.size()));
+            for (const auto& ids : st.edge_splits) {
+                std::vector<glm::dvec3> at;
+                for (std::uint32_t id : ids) at.push_back(st.verts[id].pos);
+                sent.put_all(at);
+            }
+            sent.put_all(announce[r]);
+        }
+        const std::vector<std::byte> received = all_gather(sent);
+        for (Reader in(received); !in.done();) {
+            const auto r = in.get<std::uint32_t>();
+            on_edge[r].assign(in.get<std::uint32_t>(), {});
+            for (PosSet& keys : on_edge[r])
+                for (const glm::dvec3& p : in.get_all<glm::dvec3>()) keys.insert(key_of(p));
+            announce[r] = in.get_all<SplitHit>();
+        }
 
         // Announce new boundary vertices to every boundary edge they lie on
         std::vector<std::size_t> next_dirty;
         std::vector<char> is_dirty(n, 0);
-        for (std::size_t r : dirty) {
-            const RegionState& st = states[r];
-            for (std::size_t e = 0; e < st.edge_splits.size(); ++e)
-                for (std::uint32_t id : st.edge_splits[e]) {
-                    const glm::dvec3 pos = st.verts[id].pos;
-                    if (!announced[r].insert(key_of(pos)).second) continue;
-                    edges_through(pos, [&](std::uint32_t r2, std::uint32_t e2) {
-                        if (r2 == r && e2 == e) return;
-                        const RegionState& other = states[r2];
-                        for (std::uint32_t j : other.edge_splits[e2])
-                            if (key_of(other.verts[j].pos) == key_of(pos)) return;
-                        pending[r2].push_back({e2, pos});
-                        ++total.conformity_points;
-                        if (!is_dirty[r2]) {
-                            is_dirty[r2] = 1;
-                            next_dirty.push_back(r2);
-                        }
-                    });
-                }
-        }
+        for (std::size_t r : dirty)
+            for (const SplitHit& hit : announce[r])
+                edges_through(hit.pos, [&](std::uint32_t r2, std::uint32_t e2) {
+                    if (r2 == r && e2 == hit.edge) return;
+                    if (on_edge[r2][e2].count(key_of(hit.pos))) return;
+                    pending[r2].push_back({e2, hit.pos});
+                    ++total.conformity_points;
+                    if (!is_dirty[r2]) {
+                        is_dirty[r2] = 1;
+                        next_dirty.push_back(r2);
+                    }
+                });
         dirty = std::move(next_dirty);
     }
     total.rounds = round;
 
+    // Every region's mesh, counters and seconds from the process that meshed it
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t r) {
+        if (mine[r]) canonical_order(outputs[r]);
+    });
+    if (sharing) {
+        Bytes sent;
+        for (std::size_t r = 0; r < n; ++r) {
+            if (!mine[r] || regions[r].triangles.empty()) continue;
+            sent.put(static_cast<std::uint32_t>(r));
+            sent.put_all(outputs[r].positions);
+            sent.put_all(outputs[r].triangles);
+            sent.put_all(outputs[r].source_vertex);
+            sent.put(local[r]);
+            sent.put(seconds[r]);
+        }
+        const std::vector<std::byte> received = sharing->all_gather(sent.view());
+        for (Reader in(received); !in.done();) {
+            const auto r = in.get<std::uint32_t>();
+            outputs[r].positions = in.get_all<glm::dvec3>();
+            outputs[r].triangles = in.get_all<glm::u32vec3>();
+            outputs[r].source_vertex = in.get_all<std::uint32_t>();
+            local[r] = in.get<LocalStats>();
+            seconds[r] = in.get<double>();
+        }
+        sharing->seconds = seconds;
+    }
     for (std::size_t r = 0; r < n; ++r) {
         total.triangles_out += outputs[r].triangles.size();
         total.constraints_dropped += local[r].dropped;
@@ -1130,7 +1259,6 @@ std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
         for (const SplitHit& hit : hits[r])
             total.conformity_points += own.count(key_of(hit.pos)) == 0 ? 1 : 0;
     }
-    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t r) { canonical_order(outputs[r]); });
     if (stats) *stats = total;
     return outputs;
 }

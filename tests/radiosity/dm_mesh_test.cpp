@@ -7,13 +7,18 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <glm/geometric.hpp>
 #include <iomanip>
 #include <map>
+#include <mutex>
 #include <random>
+#include <span>
 #include <stdexcept>
+#include <thread>
 #include <tuple>
 #include <unordered_map>
 #include <vector>
@@ -502,6 +507,111 @@ TEST(DmMesh, TheMeshComesInAnOrderOfItsOwn) {
         }
         expect_common(regions[r], m);
     }
+}
+
+// Processes sharing the meshing (the ranks of a distributed bake: MeshSharing), simulated by
+// threads exchanging bytes in memory: each meshes a third of a closed room's faces, chosen so
+// that every shared edge joins regions of two processes, and each receives every region's mesh,
+// the same as one process's to the bit, and the same counters.
+class InMemoryExchange {
+  public:
+    explicit InMemoryExchange(int processes) : m_parts(static_cast<std::size_t>(processes)) {}
+
+    std::vector<std::byte> all_gather(int process, std::span<const std::byte> bytes) {
+        std::unique_lock lock(m_mutex);
+        m_parts[static_cast<std::size_t>(process)].assign(bytes.begin(), bytes.end());
+        const int generation = m_generation;
+        if (++m_arrived == static_cast<int>(m_parts.size())) {
+            m_result.clear();
+            for (const auto& part : m_parts)
+                m_result.insert(m_result.end(), part.begin(), part.end());
+            m_arrived = 0;
+            ++m_generation;
+            m_done.notify_all();
+        } else {
+            m_done.wait(lock, [&] { return m_generation != generation; });
+        }
+        ++m_calls;
+        return m_result;
+    }
+    int calls() const { return m_calls; }
+
+  private:
+    std::mutex m_mutex;
+    std::condition_variable m_done;
+    std::vector<std::vector<std::byte>> m_parts;
+    std::vector<std::byte> m_result;
+    int m_arrived = 0, m_generation = 0, m_calls = 0;
+};
+
+TEST(DmMesh, SharedByProcessesGivesTheMeshOfOne) {
+    // A 2 m closed room, each face on a grid of its own, shadow-like segments on the floor and
+    // two walls, refinement points on the ceiling, and the angle bound: conformity points cross
+    // from region to region for several rounds
+    const glm::dvec3 x{2, 0, 0}, y{0, 2, 0}, z{0, 0, 2}, o{0, 0, 0};
+    std::vector<PlanarRegion> regions = {
+        make_grid(8, o, x, y, {0, 0, 1}), make_grid(3, z, x, y, {0, 0, -1}),
+        make_grid(5, o, x, z, {0, 1, 0}), make_grid(2, y, x, z, {0, -1, 0}),
+        make_grid(1, o, y, z, {1, 0, 0}), make_grid(4, x, y, z, {-1, 0, 0})};
+    std::mt19937 rng(2026);
+    auto uni = [&rng] { return 2.0 * double(rng() >> 5) / double(1u << 27); };
+    for (int k = 0; k < 12; ++k) {
+        regions[0].constraints.push_back({glm::dvec3{uni(), uni(), 0}, glm::dvec3{uni(), 0, 0}});
+        regions[2].constraints.push_back({glm::dvec3{uni(), 0, uni()}, glm::dvec3{uni(), 0, 0}});
+        regions[5].constraints.push_back({glm::dvec3{2, uni(), uni()}, glm::dvec3{2, 2, uni()}});
+        regions[1].points.push_back({uni(), uni(), 2});
+    }
+    const DmOptions options{.min_angle_deg = 20.0, .merge_distance = 1e-6};
+    DmStats alone_stats;
+    const Outputs alone = mesh(regions, options, &alone_stats);
+    ASSERT_GE(alone_stats.rounds, 3u);
+    ASSERT_GT(alone_stats.conformity_points, 20u);
+
+    constexpr int kProcesses = 3;
+    InMemoryExchange exchange(kProcesses);
+    std::vector<Outputs> shared(kProcesses);
+    std::vector<DmStats> stats(kProcesses);
+    std::vector<std::vector<double>> seconds(kProcesses);
+    std::vector<std::thread> threads;
+    for (int p = 0; p < kProcesses; ++p)
+        threads.emplace_back([&, p] {
+            MeshSharing sharing{
+                .mine =
+                    [&](std::span<const double> cost) {
+                        std::vector<char> mine(cost.size(), 0);
+                        for (std::size_t r = 0; r < cost.size(); ++r)
+                            mine[r] = static_cast<int>(r % kProcesses) == p;
+                        return mine;
+                    },
+                .all_gather =
+                    [&](std::span<const std::byte> bytes) { return exchange.all_gather(p, bytes); },
+                .seconds = {}};
+            shared[static_cast<std::size_t>(p)] =
+                mesh_regions(regions, options, &stats[static_cast<std::size_t>(p)], &sharing);
+            seconds[static_cast<std::size_t>(p)] = sharing.seconds;
+        });
+    for (std::thread& t : threads) t.join();
+    // One exchange per meshing round, and the meshes at the end
+    EXPECT_EQ(exchange.calls(), kProcesses * static_cast<int>(alone_stats.rounds + 1));
+    for (std::size_t p = 0; p < kProcesses; ++p) {
+        ASSERT_EQ(shared[p].size(), alone.size());
+        for (std::size_t r = 0; r < alone.size(); ++r) {
+            EXPECT_EQ(shared[p][r].positions, alone[r].positions)
+                << "process " << p << " region " << r;
+            EXPECT_EQ(shared[p][r].triangles, alone[r].triangles)
+                << "process " << p << " region " << r;
+            EXPECT_EQ(shared[p][r].source_vertex, alone[r].source_vertex) << p << " " << r;
+        }
+        EXPECT_EQ(stats[p].triangles_out, alone_stats.triangles_out);
+        EXPECT_EQ(stats[p].conformity_points, alone_stats.conformity_points);
+        EXPECT_EQ(stats[p].points_merged, alone_stats.points_merged);
+        EXPECT_EQ(stats[p].constraints_dropped, alone_stats.constraints_dropped);
+        EXPECT_EQ(stats[p].rounds, alone_stats.rounds);
+        // Every process has every region's measured seconds, the next call's cost
+        ASSERT_EQ(seconds[p].size(), regions.size());
+        EXPECT_EQ(seconds[p], seconds[0]);
+    }
+    expect_no_t_vertices(shared[1]);
 }
 
 TEST(DmMesh, Timing3200TrianglesWith200Segments) {

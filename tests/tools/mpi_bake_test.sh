@@ -7,9 +7,9 @@
 #                over the ranks), and with converged interreflection (each rank makes its share
 #                of the hemicubes' rows and receives the others', so every rank shoots the same
 #                rows in the same order) at 2 and 4; and the default bake, discontinuity
-#                meshing and interreflection on (shadow segments gathered, exact evaluations
-#                shared by region; each region's mesh in an order of its own positions, not of
-#                the mesher's memory addresses), at 2 and 4.
+#                meshing and interreflection on (shadow segments gathered, the meshing and the
+#                exact evaluations shared by region; each region's mesh in an order of its own
+#                positions, not of the mesher's memory addresses), at 2 and 4.
 #   killed       a rank killed mid-bake (SIGKILL at its first exchange, ABRAD_TEST_KILL_RANK)
 #                fails the job: a non-zero status, rank 0 says nothing was stored, and the
 #                database keeps every byte; and a subcommand other than bake refuses to run as
@@ -91,6 +91,9 @@ equivalence)
         bake_and_export "dm-on-np$ranks" "$ranks"
         cmp "$work/dm-on-alone.ply" "$work/dm-on-np$ranks.ply" ||
             fail "--dm on: $ranks ranks export another PLY than one process"
+        # The ranks shared the meshing (each meshed its regions and sent them), not each all
+        grep -q "per stage:.* mesh [1-9]" "$work/dm-on-np$ranks.log" ||
+            { cat "$work/dm-on-np$ranks.log"; fail "$ranks ranks did not share the meshing"; }
     done
     echo "--dm on, interreflection: 2 and 4 ranks export the PLY of one process, byte for byte"
     ;;

@@ -8,7 +8,9 @@
 // (src/dm_mesh.cpp, its own static library built with -O2 and CGAL_NDEBUG).
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <glm/vec3.hpp>
 #include <limits>
 #include <span>
@@ -56,6 +58,22 @@ struct DmStats {
     std::size_t rounds = 0;  ///< meshing rounds until every shared boundary conformed
 };
 
+/// The meshing shared among processes (the ranks of a distributed bake): each meshes the
+/// regions `mine` gives it, the processes exchange the vertices that make neighbouring
+/// regions conform after every meshing round, and each receives every region's mesh at the
+/// end. Both functions are collectives in effect: every process calls them at the same
+/// points, with the same arguments where they are alike.
+struct MeshSharing {
+    /// For each region, whether this process meshes it, from every region's cost (the same
+    /// costs on every process).
+    std::function<std::vector<char>(std::span<const double> cost)> mine;
+    /// Every process's bytes, concatenated in process order, on every process.
+    std::function<std::vector<std::byte>(std::span<const std::byte> mine)> all_gather;
+    /// In: each region's meshing seconds measured by the last call (the share's cost; empty
+    /// at first: a cost from the region's size). Out: this call's, the same on every process.
+    std::vector<double> seconds;
+};
+
 /// Meshes every region. Original vertices keep their exact positions; new vertices lie in
 /// the region's plane. A vertex of any region that lies on a boundary edge of another region
 /// (within merge_distance), whether it was there in the input (a finely meshed floor meeting
@@ -64,9 +82,11 @@ struct DmStats {
 /// A region's output depends on its mesh alone, not on the order of its input or on memory
 /// addresses: vertices sorted by position (x, then y, then z), triangles by their vertices,
 /// each starting at its smallest. Throws std::invalid_argument for a region with a zero normal
-/// or bad indices.
+/// or bad indices. With `sharing`, this process meshes only its share and the result is the
+/// same as without, on every process.
 std::vector<MeshedRegion> mesh_regions(std::span<const PlanarRegion> regions,
-                                       const DmOptions& options, DmStats* stats = nullptr);
+                                       const DmOptions& options, DmStats* stats = nullptr,
+                                       MeshSharing* sharing = nullptr);
 
 /// The region's union triangulated from its outline alone, for visibility (the
 /// interreflection's hemicubes, where a finely meshed wall then costs what its outline costs):
