@@ -324,6 +324,13 @@ struct Evaluated {
     visdb::Rgb irradiance;
 };
 
+// Per item of `cost`, whether this rank takes it (Cluster::share).
+std::vector<char> flags_of_share(const Cluster& cluster, std::span<const double> cost) {
+    std::vector<char> mine(cost.size(), 0);
+    for (const std::uint32_t k : cluster.share(cost)) mine[k] = 1;
+    return mine;
+}
+
 // The regions this rank evaluates and refines this round (all of them without MPI), shared
 // over the ranks by cost: the region's vertices times the sources that light it (each
 // evaluation asks every one of them).
@@ -335,9 +342,7 @@ std::vector<char> regions_of_rank(const Regions& regions, const RegionSources& s
     for (std::size_t r = 0; r < nr; ++r)
         cost[r] *=
             1.0 + static_cast<double>(sources.lights[r].size() + sources.luminaires[r].size());
-    std::vector<char> mine(nr, 0);
-    for (const std::uint32_t r : cluster.share(cost)) mine[r] = 1;
-    return mine;
+    return flags_of_share(cluster, cost);
 }
 
 // Every rank's split points and evaluated midpoints, per region, on every rank (a region's
@@ -529,12 +534,7 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
     Cluster alone;
     Cluster& cluster = options.cluster ? *options.cluster : alone;
     MeshSharing sharing{
-        .mine =
-            [&](std::span<const double> cost) {
-                std::vector<char> mine(cost.size(), 0);
-                for (const std::uint32_t r : cluster.share(cost)) mine[r] = 1;
-                return mine;
-            },
+        .mine = [&](std::span<const double> cost) { return flags_of_share(cluster, cost); },
         .all_gather =
             [&](std::span<const std::byte> bytes) { return cluster.all_gather(bytes, "mesh"); },
         .seconds = {}};
