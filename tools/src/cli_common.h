@@ -75,29 +75,32 @@ struct ImportArgs {
     bool allow_outside_refs = false;  ///< read files a model refers to outside its folder
 };
 
+/// The library's bake defaults, which the command line's are (one place to change them).
+inline const radiosity::BakeOptions kBakeDefaults{};
+
 /// Options of a bake (bake, run, bench).
 struct BakeArgs {
     std::string name;
     std::string method = "abuffer";
-    int resolution = 50;
-    int subpixels = 8;
+    int resolution = kBakeDefaults.resolution;
+    int subpixels = kBakeDefaults.subpixels;
     std::string bounces = "converge";
-    double converge = 0.005;
-    double element_size = 0.5;
-    int element_resolution = 32;
-    int shooter_cells = 2;
-    double overrelax = 1.0;
+    double converge = kBakeDefaults.converge;
+    double element_size = kBakeDefaults.element_size;
+    int element_resolution = kBakeDefaults.element_resolution;
+    int shooter_cells = kBakeDefaults.shooter_cells;
+    double overrelax = kBakeDefaults.overrelaxation;
     std::string ambient = "on";
     std::string convergence_csv;
     std::string shading = "exact";
-    int threads = 0;
+    int threads = kBakeDefaults.threads;
     std::string dm = "on";
     std::string lights = "vertices";
-    double dm_angle = 0.0;
-    int refine_rounds = 4;
-    double refine_tolerance = 0.05;
-    double refine_min_edge = 0.0;
-    double reach = 0.0;
+    double dm_angle = kBakeDefaults.dm_min_angle;
+    int refine_rounds = kBakeDefaults.refine_rounds;
+    double refine_tolerance = kBakeDefaults.refine_tolerance;
+    double refine_min_edge = kBakeDefaults.refine_min_edge;
+    double reach = kBakeDefaults.reach;
     /// coarsen_bake's budget (not a radiosity::BakeOptions); empty: coarsen_budget's default
     std::optional<double> coarsen;
 };

@@ -88,7 +88,7 @@ struct BakeOptions {
     /// Split an edge when its midpoint's exact irradiance departs from the linear
     /// interpolation by more than this, relative, and by more than half this of the
     /// receivers' mean irradiance (docs/algorithms.md#illumination-driven-refinement).
-    double refine_tolerance = 0.05;
+    double refine_tolerance = 0.02;
     /// Edges shorter than this (metres) are not split; 0: 1/128 of the model's size (its
     /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room) and at most 0.05 m, so that a
     /// small model meshes as it would in metres and a building as finely as a room.
