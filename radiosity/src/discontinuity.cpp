@@ -36,6 +36,13 @@ namespace {
 // (docs/algorithms.md#illumination-driven-refinement).
 constexpr double kFloorOfMean = 0.5;
 
+// The refinement also tests the centroid of a triangle whose longest edge is at least this
+// many shortest refined edges (0.4 m in a building): inside a large triangle the field can
+// peak (a light's fall-off over a coarse floor cell) where no edge's midpoint sees it; a
+// small one's field is hardly off its corners' plane
+// (docs/algorithms.md#illumination-driven-refinement).
+constexpr double kCentroidEdges = 8.0;
+
 // Exact position (and region) as a hash key.
 struct PointKey {
     std::uint32_t region;
@@ -410,40 +417,54 @@ std::size_t evaluate_vertices(const Regions& regions, const RegionShafts& shafts
 }
 
 // The points that split region r's edges whose midpoint's exact irradiance departs from the
-// linear interpolation of their ends; midpoints evaluated here go to `evaluated`.
+// linear interpolation of their ends, and its large triangles whose centroid's does; the points
+// evaluated here go to `evaluated`.
 void refine_region(const Regions& regions, const RegionShafts& shafts, const MeshedRegion& m,
                    std::uint32_t r, const visdb::Rgb* h, double floor, double min_edge,
                    const BakeOptions& options, const IrradianceCache& cache,
                    std::vector<glm::dvec3>& split,
                    std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
+    std::vector<const Patch*> occ;
+    const glm::dvec3 rn = regions.planar[r].normal;
+    // Splits at x when its exact value departs from `linear` by more than the tolerance
+    const auto test = [&](const glm::dvec3& x, const visdb::Rgb& linear) {
+        const PointKey key = key_of(r, x);
+        const auto hit = cache.find(key);
+        visdb::Rgb exact;
+        if (hit != cache.end()) {
+            exact = hit->second;
+        } else {
+            exact = shafts.irradiance(r, x, rn, occ);
+            evaluated.emplace_back(key, exact);
+        }
+        const double diff = visdb::channel_mean(glm::abs(exact - linear));
+        if (diff > floor && diff > options.refine_tolerance * std::max(visdb::channel_mean(exact),
+                                                                       visdb::channel_mean(linear)))
+            split.push_back(x);
+    };
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
     for (const glm::u32vec3& t : m.triangles)
         for (int k = 0; k < 3; ++k)
             edges.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
     std::sort(edges.begin(), edges.end());
     edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-    std::vector<const Patch*> occ;
-    const glm::dvec3 rn = regions.planar[r].normal;
     for (const auto& [a, b] : edges) {
         const glm::dvec3 pa = m.positions[a], pb = m.positions[b];
         if (glm::length(pb - pa) < min_edge) continue;
         // Canonical midpoint: the same bits from either region sharing the edge
         const glm::dvec3 mid =
             lexicographically_less(pa, pb) ? pa + 0.5 * (pb - pa) : pb + 0.5 * (pa - pb);
-        const visdb::Rgb linear = 0.5 * (h[a] + h[b]);
-        const PointKey key = key_of(r, mid);
-        const auto hit = cache.find(key);
-        visdb::Rgb at_mid;
-        if (hit != cache.end()) {
-            at_mid = hit->second;
-        } else {
-            at_mid = shafts.irradiance(r, mid, rn, occ);
-            evaluated.emplace_back(key, at_mid);
-        }
-        const double diff = visdb::channel_mean(glm::abs(at_mid - linear));
-        if (diff > floor && diff > options.refine_tolerance * std::max(visdb::channel_mean(at_mid),
-                                                                       visdb::channel_mean(linear)))
-            split.push_back(mid);
+        test(mid, 0.5 * (h[a] + h[b]));
+    }
+    for (const glm::u32vec3& t : m.triangles) {
+        std::array<glm::dvec3, 3> p = {m.positions[t.x], m.positions[t.y], m.positions[t.z]};
+        const double longest = std::max(
+            {glm::length(p[1] - p[0]), glm::length(p[2] - p[1]), glm::length(p[0] - p[2])});
+        if (longest < kCentroidEdges * min_edge) continue;
+        // The corners in one order, so that the centroid's bits do not depend on the
+        // mesher's numbering
+        std::sort(p.begin(), p.end(), lexicographically_less);
+        test((p[0] + p[1] + p[2]) / 3.0, (h[t.x] + h[t.y] + h[t.z]) / 3.0);
     }
 }
 

@@ -151,16 +151,16 @@ visdb::Surface one_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm:
 
 // Bakes `scene` with patch shading, direct light only, without and with DM, and calls
 // check(dm, surface, irradiance) at every vertex of the surfaces after the floor and the
-// light; at least `least` such vertices in each bake. The DM bake refines to
-// `refine_tolerance`.
+// light; at least `least` such vertices in each bake. The DM bake refines in `refine_rounds`
+// rounds.
 template <typename Check>
 void for_patch_bakes(const visdb::Scene& scene, Check&& check, int least,
-                     double refine_tolerance = BakeOptions{}.refine_tolerance) {
+                     int refine_rounds = BakeOptions{}.refine_rounds) {
     for (bool dm : {false, true}) {
         SCOPED_TRACE(dm ? "with DM" : "without DM");
         BakeOptions o = direct();
         o.dm = dm;
-        o.refine_tolerance = refine_tolerance;
+        o.refine_rounds = refine_rounds;
         o.shading = Shading::Patch;
         const visdb::Bake b = bake(scene, o);
         expect_sane(b);
@@ -193,9 +193,10 @@ double needle_closed_form(double x0, double x1, double y) {
 // hemicube sample took a whole fine sample's delta form factor, and dividing the light's share
 // by its tiny area gave 300-1,700 times its irradiance in patch shading. Its form factor is
 // now bounded by the closed form of its view from the shooting point (shade.cpp), so the
-// patch value is the paper's point-light estimate of the closed form. The DM bake refines at
-// 0.05: at the default 0.02 the needle is cut into pieces 20 µm wide whose hemicube estimates
-// scatter further (a vertex of needle 0 at 0.68 of the closed form's least value).
+// patch value is the paper's point-light estimate of the closed form. The DM bake cuts the
+// needles along the shadow edges only: the default refinement (at 0.02, with the centroids of
+// triangles as long as these) cuts them into pieces 20 µm wide whose hemicube estimates scatter
+// further (a vertex of needle 0 at 0.68 of the closed form's least value).
 TEST(HardCases, NeedleReceiversGetTheirClosedFormInPatchShading) {
     visdb::Scene scene = base_scene();
     struct Needle {
@@ -226,7 +227,7 @@ TEST(HardCases, NeedleReceiversGetTheirClosedFormInPatchShading) {
             EXPECT_GE(h.y, 0.8 * lo) << "needle " << surface - 2 << " dm " << dm;
             EXPECT_LE(h.y, 1.2 * hi) << "needle " << surface - 2 << " dm " << dm;
         },
-        9, 0.05);
+        9, 0);
 }
 
 // A sliver 1 mm under a light triangle's centroid, facing it, sees almost nothing but the
