@@ -260,7 +260,7 @@ std::map<std::string, std::string> key_values(const std::string& text) {
 }
 
 // The paper's room with its occluder: discontinuity meshing cuts the field error of the
-// 2-triangle walls and the floor's shadow to a small fraction, in fewer triangles.
+// 2-triangle walls and the floor's shadow to a small fraction, in about as many triangles.
 TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     const std::string db = baked_db();  // bake "first": the defaults, --dm on
     ASSERT_EQ(run("bake --bounces 0 --db " + db + " --name plain --dm off").status, 0);
@@ -271,12 +271,13 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     auto kv_on = key_values(on.output), kv_off = key_values(off.output);
     EXPECT_EQ(kv_off["triangles"], "3213");
     // Meshed along the shadows and refined, then coarsened where the light is near linear
-    // (the default --coarsen): fewer triangles than the model at a tenth of its error
-    EXPECT_LT(std::stoul(kv_on["triangles"]), 3213u);
+    // (the default --coarsen): at most a quarter more triangles than the model (3,562; 2,158
+    // with the refinement at 0.05 and midpoints only) at a twentieth of its error (a fortieth)
+    EXPECT_LT(std::stoul(kv_on["triangles"]), 3213u * 5 / 4);
     EXPECT_NEAR(std::stod(kv_on["receiver_area_m2"]), std::stod(kv_off["receiver_area_m2"]), 1e-6);
     const double e_on = std::stod(kv_on["relative_l1"]), e_off = std::stod(kv_off["relative_l1"]);
     EXPECT_GT(e_off, 0.2);
-    EXPECT_LT(e_on, 0.1 * e_off);
+    EXPECT_LT(e_on, 0.05 * e_off);
     EXPECT_EQ(run("field-error --db " + db + " --bake nope").status, 2);
     EXPECT_EQ(run("field-error --db " + db + " --subdivisions 0").status, 2);
     const std::string empty = path("empty.visdb").string();
