@@ -501,8 +501,9 @@ std::size_t refine(Regions& regions, const RegionShafts& shafts,
         region_start[r + 1] =
             region_start[r] + static_cast<std::uint32_t>(meshed[r].positions.size());
     std::vector<std::vector<glm::dvec3>> split(meshed.size());
-    // Midpoints evaluated this round, cached like vertices: an edge that stays unsplit keeps
-    // its midpoint's bits, so later rounds look it up instead of re-evaluating
+    // Midpoints and centroids evaluated this round, cached like vertices: an edge or a
+    // triangle that stays unsplit keeps its point's bits, so later rounds look it up instead
+    // of re-evaluating
     std::vector<std::vector<std::pair<PointKey, visdb::Rgb>>> evaluated(meshed.size());
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
         progress.add(meshed[r].triangles.size());

@@ -87,7 +87,8 @@ struct BakeOptions {
     int refine_rounds = 4;      ///< illumination-driven refinement rounds (0 = shadow edges only)
     /// Split an edge when its midpoint's exact irradiance departs from the linear
     /// interpolation by more than this, relative, and by more than half this of the
-    /// receivers' mean irradiance (docs/algorithms.md#illumination-driven-refinement).
+    /// receivers' mean irradiance; and a triangle at least 8 shortest refined edges long,
+    /// likewise, at its centroid (docs/algorithms.md#illumination-driven-refinement).
     double refine_tolerance = 0.02;
     /// Edges shorter than this (metres) are not split; 0: 1/128 of the model's size (its
     /// bounding-box diagonal: 0.05 m in a 4 x 4 x 3 m room) and at most 0.05 m, so that a
