@@ -344,9 +344,13 @@ TEST_F(Cli, TheDefaultBakeIsCoarsenedWhereTheLightIsNearLinear) {
     EXPECT_EQ(f.statistics.dm->triangles_meshed, 0u);
     EXPECT_LT(l.mesh.triangles.size(), f.mesh.triangles.size() * 6 / 10);
     EXPECT_EQ(l.statistics.triangles, l.mesh.triangles.size());
-    EXPECT_GT(l.statistics.dm->coarsen_change, 0.0);
+    // The change the decimation spent: within the default budget, which it passes by one
+    // collapse's share at most (exact_budget = false)
+    const double change = l.statistics.dm->coarsen_change;
+    EXPECT_GT(change, 0.0);
+    EXPECT_LT(change, 1.01 * 0.001);  // kCoarsenBudget of tools/src/cli_common.h
     bool recorded = false;
-    for (const auto& [key, value] : l.parameters) recorded |= key == "coarsen" && value == "0.0003";
+    for (const auto& [key, value] : l.parameters) recorded |= key == "coarsen" && value == "0.001";
     EXPECT_TRUE(recorded);
 
     // Kept vertices keep the full mesh's exact values (a place may hold several vertices,
@@ -382,7 +386,11 @@ TEST_F(Cli, TheDefaultBakeIsCoarsenedWhereTheLightIsNearLinear) {
     ASSERT_EQ(e_light.status, 0) << e_light.output;
     const double ef = std::stod(key_values(e_full.output)["relative_l1"]);
     const double el = std::stod(key_values(e_light.output)["relative_l1"]);
-    EXPECT_LT(el, 1.1 * ef) << "full " << ef;
+    // The field error is a mean of |E - exact| over the area, a fraction of the mean
+    // irradiance; the coarsening moves E by the area-weighted mean change it spent (the same
+    // fraction), so by the triangle inequality the error grows by at most that change. Both
+    // are quadratures (field-error's samples, the decimation's vertex weights): twice it.
+    EXPECT_LT(el, ef + 2.0 * change) << "full " << ef << ", change " << change;
 
     // Out of range, or without a discontinuity mesh to coarsen: exit 2, nothing stored
     for (const std::string bad : {"--coarsen 0.5", "--coarsen -1", "--dm off --coarsen 0.001"}) {

@@ -189,7 +189,7 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
                    "With --dm on: the bake's mesh decimated (OpenMesh) where its light is near "
                    "linear, removing vertices while each changes by at most --refine-tolerance "
                    "and all by at most this area-weighted mean change, a fraction of the mean "
-                   "irradiance, in [0, 0.1] (default 0.0003; 0 with --dm-angle > 0; 0 = keep "
+                   "irradiance, in [0, 0.1] (default 0.001; 0 with --dm-angle > 0; 0 = keep "
                    "every meshed triangle)");
 }
 

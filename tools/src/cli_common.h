@@ -106,7 +106,7 @@ struct BakeArgs {
 };
 
 /// The default budget of coarsen_bake.
-inline constexpr double kCoarsenBudget = 0.0003;
+inline constexpr double kCoarsenBudget = 0.001;
 
 /// The bake's coarsening budget: --coarsen when given, else kCoarsenBudget, or 0 with
 /// --dm-angle > 0 (asked for well-shaped triangles, which the decimation does not keep).
