@@ -288,6 +288,50 @@ TEST_F(Cli, FieldErrorFallsWithDiscontinuityMeshing) {
     EXPECT_NE(none.output.find("no bake"), std::string::npos);
 }
 
+// field-error --by-surface: the surfaces' shares add up to the whole, largest first. The
+// paper room without a discontinuity mesh: its four 2-triangle walls (lit at a grazing angle,
+// the light's fall-off across 4 m between corner values) carry the error, its 3,200-triangle
+// floor almost none, its ceiling (unlit) none.
+TEST_F(Cli, FieldErrorBySurfaceAddsUpToTheWhole) {
+    const std::string db = baked_db();
+    ASSERT_EQ(run("bake --bounces 0 --db " + db + " --name plain --dm off").status, 0);
+    const Result r = run("field-error --db " + db + " --bake plain --by-surface 100");
+    ASSERT_EQ(r.status, 0) << r.output;
+    auto kv = key_values(r.output);
+    ASSERT_EQ(kv["receiver_surfaces"], "7") << r.output;
+    double sum = 0.0, previous = 1.0;
+    std::map<std::string, double> own;
+    for (int k = 1; k <= 7; ++k) {
+        const std::string line = kv["surface_" + std::to_string(k)];
+        ASSERT_FALSE(line.empty()) << r.output;
+        std::istringstream in(line);
+        std::map<std::string, std::string> f;
+        for (std::string word; in >> word;)
+            if (const auto eq = word.find('='); eq != std::string::npos)
+                f[word.substr(0, eq)] = word.substr(eq + 1);
+        const double share = std::stod(f["share"]);
+        EXPECT_LE(share, previous) << r.output;  // largest first
+        previous = share;
+        sum += share;
+        own[f["name"]] = std::stod(f["relative_l1"]);
+    }
+    EXPECT_TRUE(kv.find("surface_8") == kv.end());
+    EXPECT_NEAR(sum, std::stod(kv["relative_l1"]), 1e-3 * std::stod(kv["relative_l1"]));
+    for (const char* wall : {"wall_north", "wall_south", "wall_east", "wall_west"})
+        EXPECT_GT(own[wall], 0.5) << wall;
+    EXPECT_LT(own["floor"], 0.01);
+    EXPECT_EQ(own["ceiling"], 0.0);
+    // Only as many as asked; none unless asked
+    const Result two = run("field-error --db " + db + " --bake plain --by-surface 2");
+    EXPECT_TRUE(key_values(two.output).count("surface_2") == 1 &&
+                key_values(two.output).count("surface_3") == 0)
+        << two.output;
+    EXPECT_EQ(key_values(run("field-error --db " + db + " --bake plain").output)
+                  .count("receiver_surfaces"),
+              0u);
+    EXPECT_EQ(run("field-error --db " + db + " --bake plain --by-surface -1").status, 2);
+}
+
 // The furnished room (coarse CAD-like walls, a 12×10 floor meeting walls of 2 triangles,
 // furniture standing on the floor): the discontinuity mesh has no T-vertices and every
 // surface keeps its area.

@@ -4,7 +4,9 @@
 // relative L1 over all receivers.
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
+#include <vector>
 #include <glm/vec3.hpp>
 
 #include "abrad/radiosity/stage.h"
@@ -19,6 +21,15 @@ struct FieldErrorOptions {
     int subdivisions = 3;  ///< each triangle is sampled at the centroids of its k² sub-triangles
 };
 
+/// One receiver surface's share of the field error.
+struct SurfaceFieldError {
+    std::uint32_t surface = 0;  ///< index in scene.surfaces
+    double error = 0.0;         ///< Σ A·mean|interpolated − exact| over its triangles, W
+    double exact = 0.0;         ///< Σ A·mean|exact| over its triangles, W
+    double area_m2 = 0.0;
+    std::size_t triangles = 0;
+};
+
 struct FieldError {
     double relative_l1 = 0.0;  ///< Σ A·mean|interpolated − exact| / Σ A·mean|exact| (channel mean)
     double absolute_l1 = 0.0;   ///< Σ A·mean|interpolated − exact| / Σ A, W/m²
@@ -26,6 +37,9 @@ struct FieldError {
     double area_m2 = 0.0;       ///< receiver area measured
     std::size_t triangles = 0;  ///< receiver triangles measured
     std::size_t samples = 0;    ///< points evaluated
+    /// Per receiver surface with measured triangles, by surface index: the share of the
+    /// whole is error / (the sum of every surface's exact), its own error error / exact.
+    std::vector<SurfaceFieldError> surfaces;
 };
 
 /// Measures `mesh` (its `irradiance` per vertex) against `exact` over every triangle whose
