@@ -6,8 +6,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
-#include <vector>
 #include <glm/vec3.hpp>
+#include <vector>
 
 #include "abrad/radiosity/stage.h"
 #include "abrad/visdb/model.h"
