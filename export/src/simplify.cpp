@@ -520,11 +520,23 @@ void lock_shared(const visdb::BakeMesh& in, double tolerance, Built& b) {
     for (std::uint32_t i = 0; i < in.positions.size(); ++i)
         grid[key_of(in.positions[i])].push_back(i);
     std::vector<char> shared(in.positions.size(), 0);
+    // The neighbour cells a point within `tolerance` of this one may lie in, per axis: the
+    // one below only when the point is that near its cell's low side, the one above likewise
+    // (most points are deep inside their cell of 4 × tolerance: one cell, not 27)
+    const auto reach = [&](double x, std::int64_t c, std::int64_t& lo, std::int64_t& hi) {
+        lo = cell_of(x - tolerance) < c ? -1 : 0;
+        hi = cell_of(x + tolerance) > c ? 1 : 0;
+    };
     for (std::uint32_t i = 0; i < in.positions.size(); ++i) {
-        const Key k = key_of(in.positions[i]);
-        for (std::int64_t dx = -1; dx <= 1 && !shared[i]; ++dx)
-            for (std::int64_t dy = -1; dy <= 1 && !shared[i]; ++dy)
-                for (std::int64_t dz = -1; dz <= 1 && !shared[i]; ++dz) {
+        const glm::dvec3& p = in.positions[i];
+        const Key k = key_of(p);
+        std::int64_t lx, hx, ly, hy, lz, hz;
+        reach(p.x, k[0], lx, hx);
+        reach(p.y, k[1], ly, hy);
+        reach(p.z, k[2], lz, hz);
+        for (std::int64_t dx = lx; dx <= hx && !shared[i]; ++dx)
+            for (std::int64_t dy = ly; dy <= hy && !shared[i]; ++dy)
+                for (std::int64_t dz = lz; dz <= hz && !shared[i]; ++dz) {
                     const auto it = grid.find({k[0] + dx, k[1] + dy, k[2] + dz});
                     if (it == grid.end()) continue;
                     for (const std::uint32_t j : it->second)
