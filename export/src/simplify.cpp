@@ -34,6 +34,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <memory>
@@ -406,23 +407,42 @@ class ModPlanarQuadric : public OpenMesh::Decimater::ModQuadricT<Mesh> {
     }
 };
 
-// Stops the decimation once the collapses have spent the error budget.
-// Stops the decimation after the first collapse past the budget, remembering how many came
-// before it.
+// With a budget (> 0), stops the decimation after the first collapse past it, remembering
+// how many came before it. Reports progress every kProgressStep collapses: the thousandths
+// of the budget spent, or without one the collapses out of `vertices`.
 class BudgetObserver : public OpenMesh::Decimater::Observer {
   public:
-    BudgetObserver(const ModIrradianceBound& bound, double budget)
-        : Observer(1), m_bound(bound), m_budget(budget) {}
+    BudgetObserver(const ModIrradianceBound& bound, double budget, std::size_t vertices,
+                   const SimplifyProgress* progress)
+        : Observer(1),
+          m_bound(bound),
+          m_budget(budget),
+          m_vertices(vertices),
+          m_progress(progress) {}
     void notify(std::size_t step) override {
-        if (m_bound.spent() <= m_budget) within = step;
+        if (m_budget <= 0.0 || m_bound.spent() <= m_budget) within = step;
+        if (m_progress && step % kProgressStep == 0) report(step);
     }
-    bool abort() const override { return m_bound.spent() > m_budget; }
+    bool abort() const override { return m_budget > 0.0 && m_bound.spent() > m_budget; }
+
+    /// Progress after `step` collapses (never done = total: the caller says when it ends).
+    void report(std::size_t step) const {
+        if (m_budget > 0.0)
+            (*m_progress)(std::min<std::size_t>(
+                              999, static_cast<std::size_t>(1000.0 * m_bound.spent() / m_budget)),
+                          1000);
+        else
+            (*m_progress)(std::min(step, m_vertices - 1), m_vertices);
+    }
 
     std::size_t within = 0;  ///< collapses carried out within the budget
 
   private:
+    static constexpr std::size_t kProgressStep = 64;
     const ModIrradianceBound& m_bound;
     double m_budget;
+    std::size_t m_vertices;
+    const SimplifyProgress* m_progress;
 };
 
 void check_mesh(const visdb::BakeMesh& mesh, const SimplifyOptions& options) {
@@ -730,9 +750,10 @@ struct Decimation {
     std::size_t stale = 0;
 };
 
-// Sets up `d` from `in` and decimates it: at most `limit` collapses when given.
+// Sets up `d` from `in` and decimates it: at most `limit` collapses when given; progress to
+// `progress` when not null.
 void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
-              std::optional<std::size_t> limit, Decimation& d) {
+              std::optional<std::size_t> limit, const SimplifyProgress* progress, Decimation& d) {
     build(in, visdb::local_origin(in.positions), d.b);
     Mesh& m = d.b.mesh;
     Context& context = d.context;
@@ -788,8 +809,11 @@ void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
     if (options.keep_shared) lock_shared(in, context.straight, d.b);
     decimater.module(bound).set_context(&context);
     if (!decimater.initialize()) throw ExportError("simplify: OpenMesh's decimater did not start");
-    BudgetObserver observer(decimater.module(bound), context.budget);
-    if (context.budget > 0.0) decimater.set_observer(&observer);
+    const SimplifyProgress* const reported = progress && *progress ? progress : nullptr;
+    BudgetObserver observer(decimater.module(bound), context.budget,
+                            std::max<std::size_t>(m.n_vertices(), 1), reported);
+    if (reported) observer.report(0);
+    if (context.budget > 0.0 || reported) decimater.set_observer(&observer);
     if (!limit)
         decimater.decimate();
     else if (*limit > 0)
@@ -816,17 +840,23 @@ std::string to_string(const SimplifyStats& s) {
 }
 
 visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& options,
-                         SimplifyStats* stats, std::vector<std::uint32_t>* kept) {
+                         SimplifyStats* stats, std::vector<std::uint32_t>* kept,
+                         const SimplifyProgress& progress) {
     const auto start = std::chrono::steady_clock::now();
     check_mesh(in, options);
     auto d = std::make_unique<Decimation>();
-    decimate(in, options, std::nullopt, *d);
+    decimate(in, options, std::nullopt, &progress, *d);
     if (options.exact_budget && d->context.budget > 0.0 && d->spent > d->context.budget) {
         // The last collapse went past the budget: the same decimation again (it is
         // deterministic), stopped before it
         const std::size_t within = d->within_budget;
         d = std::make_unique<Decimation>();
-        decimate(in, options, within, *d);
+        decimate(in, options, within, nullptr, *d);  // (its progress was reported)
+    }
+    if (progress) {
+        const bool budgeted = d->context.budget > 0.0;
+        const std::size_t total = budgeted ? 1000 : std::max<std::size_t>(in.positions.size(), 1);
+        progress(total, total);
     }
     visdb::BakeMesh out = collect(in, d->b, d->context, kept);
     if (stats) {

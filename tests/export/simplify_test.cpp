@@ -368,6 +368,53 @@ TEST(Simplify, BudgetBoundsTheAreaWeightedChange) {
     }
 }
 
+// Progress while the decimation runs: with a budget, the thousandths of it spent, rising,
+// then done = total; without, the vertices removed out of the mesh's, ending at the count
+// that went.
+TEST(Simplify, ProgressReportsTheBudgetSpentOrTheVerticesRemoved) {
+    const Field wave = [](double x, double y) { return 2.0 + std::sin(6.0 * x) * y * y + 0.5 * x; };
+    const visdb::BakeMesh in = grid(24, wave);
+    for (const double budget : {0.016, 0.0}) {
+        std::vector<std::pair<std::size_t, std::size_t>> calls;
+        const SimplifyOptions options{
+            .error = budget > 0.0 ? 1.0 : 0.05, .budget = budget, .exact_budget = false};
+        SimplifyStats stats;
+        simplify(in, options, &stats, nullptr,
+                 [&](std::size_t done, std::size_t total) { calls.emplace_back(done, total); });
+        ASSERT_GE(calls.size(), 3u) << "budget " << budget;  // start, some steps, end
+        const std::size_t total = budget > 0.0 ? 1000 : in.positions.size();
+        for (std::size_t k = 0; k < calls.size(); ++k) {
+            EXPECT_EQ(calls[k].second, total);
+            EXPECT_LE(calls[k].first, total);
+            if (k > 0) {
+                EXPECT_GE(calls[k].first, calls[k - 1].first) << "budget " << budget;
+            }
+            if (k + 1 < calls.size()) {
+                EXPECT_LT(calls[k].first, total) << "ends only at the end";
+            }
+        }
+        EXPECT_EQ(calls.back().first, total);
+        if (budget > 0.0) {
+            // The budget is spent (its last collapse passes it); the steps before the end
+            // saw some of it spent (the cheapest collapses go first: here 156 thousandths
+            // 64 collapses before the end)
+            EXPECT_GT(stats.mean_change, budget);
+            EXPECT_GT(calls[calls.size() - 2].first, 0u);
+        } else {
+            // The last step reported is within one reporting interval of the vertices removed
+            const std::size_t removed = stats.vertices_before - stats.vertices_after;
+            EXPECT_LE(calls[calls.size() - 2].first, removed);
+            EXPECT_GT(calls[calls.size() - 2].first + 64, removed);
+            EXPECT_GT(removed, 64u);
+        }
+    }
+    // No callback: the same mesh
+    const visdb::BakeMesh a = simplify(in, {.error = 1.0, .budget = 0.004});
+    const visdb::BakeMesh b = simplify(in, {.error = 1.0, .budget = 0.004}, nullptr, nullptr,
+                                       [](std::size_t, std::size_t) {});
+    EXPECT_EQ(a.triangles, b.triangles);
+}
+
 // `kept` names each vertex's place in the input; with keep_shared, the vertices two surfaces
 // both have (their shared edge, where the surfaces meet) all stay, on both sides, though
 // their field is linear and the edge straight; without it the edge keeps its ends only.

@@ -230,7 +230,6 @@ void coarsen_bake(visdb::Bake& b, double budget, double tolerance,
                   const radiosity::ProgressFn& progress) {
     if (!(budget > 0.0) || !b.statistics.dm || b.mesh.triangles.empty()) return;
     const auto start = std::chrono::steady_clock::now();
-    if (progress) progress("coarsen", 0, 1);
     const exporter::SimplifyOptions options{.error = std::min(tolerance, 1.0),
                                             .floor = kCoarsenFloor,
                                             .refit = false,
@@ -238,9 +237,17 @@ void coarsen_bake(visdb::Bake& b, double budget, double tolerance,
                                             .exact_budget = false,
                                             .keep_shared = true,
                                             .max_held = kCoarsenMaxHeld};
+    exporter::SimplifyProgress decimation_progress;
+    if (progress)
+        decimation_progress = [&progress](std::size_t done, std::size_t) {
+            // The thousandths of the budget spent, without an ETA: the cheapest collapses go
+            // first, so the budget goes ever faster (100k floor: 3 % spent 2 s into the
+            // decimation, 42 % at 4 s, all at 4.5 s) and a rate would promise minutes
+            progress("coarsen: thousandths of the budget spent", done, 0);
+        };
     exporter::SimplifyStats st;
     std::vector<std::uint32_t> kept;
-    visdb::BakeMesh light = exporter::simplify(b.mesh, options, &st, &kept);
+    visdb::BakeMesh light = exporter::simplify(b.mesh, options, &st, &kept, decimation_progress);
     for (visdb::LightGroupShades& g : b.light_groups) {
         std::vector<glm::vec3> h(kept.size()), r(kept.size());
         for (std::size_t v = 0; v < kept.size(); ++v) {
@@ -261,7 +268,6 @@ void coarsen_bake(visdb::Bake& b, double budget, double tolerance,
     char value[32];
     std::snprintf(value, sizeof value, "%g", budget);
     b.parameters.emplace_back("coarsen", value);
-    if (progress) progress("coarsen", 1, 1);
 }
 
 visdb::Bake bake_into(const std::string& db, const radiosity::BakeOptions& options_in,

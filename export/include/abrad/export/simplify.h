@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,12 @@ struct SimplifyOptions {
     std::size_t max_held = 0;
 };
 
+/// Called now and then while the decimation runs (on the calling thread) with (done,
+/// total): with a budget, the thousandths of it spent (total 1000; the cheapest collapses go
+/// first, so a rate from the start overestimates what is left); without, the vertices
+/// removed out of the mesh's vertices. Ends with done = total.
+using SimplifyProgress = std::function<void(std::size_t done, std::size_t total)>;
+
 /// What a simplification did.
 struct SimplifyStats {
     std::size_t triangles_before = 0;
@@ -79,7 +86,7 @@ std::string to_string(const SimplifyStats& stats);
 /// (the values of other per-vertex arrays, such as light groups' shades, carry over through
 /// it unless `refit` is set).
 visdb::BakeMesh simplify(const visdb::BakeMesh& mesh, const SimplifyOptions& options,
-                         SimplifyStats* stats = nullptr,
-                         std::vector<std::uint32_t>* kept = nullptr);
+                         SimplifyStats* stats = nullptr, std::vector<std::uint32_t>* kept = nullptr,
+                         const SimplifyProgress& progress = {});
 
 }  // namespace abrad::exporter
