@@ -407,18 +407,20 @@ class ModPlanarQuadric : public OpenMesh::Decimater::ModQuadricT<Mesh> {
     }
 };
 
+// What progress counts to: the thousandths of a budget (the context's, > 0), else the
+// input's vertices.
+std::size_t progress_total(const visdb::BakeMesh& in, double budget) {
+    return budget > 0.0 ? 1000 : std::max<std::size_t>(in.positions.size(), 1);
+}
+
 // With a budget (> 0), stops the decimation after the first collapse past it, remembering
 // how many came before it. Reports progress every kProgressStep collapses: the thousandths
-// of the budget spent, or without one the collapses out of `vertices`.
+// of the budget spent, or without one the collapses, out of `total` (progress_total).
 class BudgetObserver : public OpenMesh::Decimater::Observer {
   public:
-    BudgetObserver(const ModIrradianceBound& bound, double budget, std::size_t vertices,
+    BudgetObserver(const ModIrradianceBound& bound, double budget, std::size_t total,
                    const SimplifyProgress* progress)
-        : Observer(1),
-          m_bound(bound),
-          m_budget(budget),
-          m_vertices(vertices),
-          m_progress(progress) {}
+        : Observer(1), m_bound(bound), m_budget(budget), m_total(total), m_progress(progress) {}
     void notify(std::size_t step) override {
         if (m_budget <= 0.0 || m_bound.spent() <= m_budget) within = step;
         if (m_progress && step % kProgressStep == 0) report(step);
@@ -427,12 +429,9 @@ class BudgetObserver : public OpenMesh::Decimater::Observer {
 
     /// Progress after `step` collapses (never done = total: the caller says when it ends).
     void report(std::size_t step) const {
-        if (m_budget > 0.0)
-            (*m_progress)(std::min<std::size_t>(
-                              999, static_cast<std::size_t>(1000.0 * m_bound.spent() / m_budget)),
-                          1000);
-        else
-            (*m_progress)(std::min(step, m_vertices - 1), m_vertices);
+        const std::size_t done =
+            m_budget > 0.0 ? static_cast<std::size_t>(1000.0 * m_bound.spent() / m_budget) : step;
+        (*m_progress)(std::min(done, m_total - 1), m_total);
     }
 
     std::size_t within = 0;  ///< collapses carried out within the budget
@@ -441,7 +440,7 @@ class BudgetObserver : public OpenMesh::Decimater::Observer {
     static constexpr std::size_t kProgressStep = 64;
     const ModIrradianceBound& m_bound;
     double m_budget;
-    std::size_t m_vertices;
+    std::size_t m_total;
     const SimplifyProgress* m_progress;
 };
 
@@ -811,7 +810,7 @@ void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
     if (!decimater.initialize()) throw ExportError("simplify: OpenMesh's decimater did not start");
     const SimplifyProgress* const reported = progress && *progress ? progress : nullptr;
     BudgetObserver observer(decimater.module(bound), context.budget,
-                            std::max<std::size_t>(m.n_vertices(), 1), reported);
+                            progress_total(in, context.budget), reported);
     if (reported) observer.report(0);
     if (context.budget > 0.0 || reported) decimater.set_observer(&observer);
     if (!limit)
@@ -854,8 +853,7 @@ visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& optio
         decimate(in, options, within, nullptr, *d);  // (its progress was reported)
     }
     if (progress) {
-        const bool budgeted = d->context.budget > 0.0;
-        const std::size_t total = budgeted ? 1000 : std::max<std::size_t>(in.positions.size(), 1);
+        const std::size_t total = progress_total(in, d->context.budget);
         progress(total, total);
     }
     visdb::BakeMesh out = collect(in, d->b, d->context, kept);

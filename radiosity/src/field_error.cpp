@@ -118,7 +118,7 @@ FieldError field_error(const visdb::Scene& scene, const visdb::BakeMesh& mesh,
     const std::size_t nt = mesh.triangles.size();
     std::vector<Partial> partial((nt + kBlock - 1) / kBlock);
     // Each triangle's error and exact sums, for the surfaces' shares (added in order below)
-    std::vector<double> tri_error(nt, 0.0), tri_exact(nt, 0.0), tri_area(nt, -1.0);
+    std::vector<double> tri_error(nt, 0.0), tri_exact(nt, 0.0), tri_area(nt, 0.0);
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, partial.size(), 1), [&](const auto& blocks) {
             for (std::size_t block = blocks.begin(); block != blocks.end(); ++block) {
@@ -178,25 +178,22 @@ FieldError field_error(const visdb::Scene& scene, const visdb::BakeMesh& mesh,
     result.area_m2 = sum.area;
     result.triangles = sum.triangles;
     result.samples = sum.samples;
-    // Per surface, in triangle order (the same at any thread count)
-    std::vector<std::int64_t> slot(scene.surfaces.size(), -1);
+    // Per surface, in triangle order (the same at any thread count); a measured triangle has
+    // an area
+    std::vector<SurfaceFieldError> per_surface(scene.surfaces.size());
     for (std::size_t t = 0; t < nt; ++t) {
-        if (tri_area[t] < 0.0) continue;  // not measured
-        const std::uint32_t s = mesh.triangle_surface[t];
-        if (slot[s] < 0) {
-            slot[s] = static_cast<std::int64_t>(result.surfaces.size());
-            result.surfaces.push_back({.surface = s});
-        }
-        SurfaceFieldError& e = result.surfaces[static_cast<std::size_t>(slot[s])];
+        if (!(tri_area[t] > 0.0)) continue;
+        SurfaceFieldError& e = per_surface[mesh.triangle_surface[t]];
         e.error += tri_error[t];
         e.exact += tri_exact[t];
         e.area_m2 += tri_area[t];
         e.triangles += 1;
     }
-    std::sort(result.surfaces.begin(), result.surfaces.end(),
-              [](const SurfaceFieldError& a, const SurfaceFieldError& b) {
-                  return a.surface < b.surface;
-              });
+    for (std::size_t s = 0; s < per_surface.size(); ++s)
+        if (per_surface[s].triangles > 0) {
+            per_surface[s].surface = static_cast<std::uint32_t>(s);
+            result.surfaces.push_back(per_surface[s]);
+        }
     return result;
 }
 
