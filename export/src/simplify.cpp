@@ -23,6 +23,8 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
 
+#include <tbb/parallel_for.h>
+
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
 #include <OpenMesh/Tools/Decimater/ModBaseT.hh>
@@ -30,6 +32,7 @@
 #include <OpenMesh/Tools/Decimater/Observer.hh>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -38,7 +41,9 @@
 #include <glm/geometric.hpp>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
+#include <span>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -407,32 +412,57 @@ class ModPlanarQuadric : public OpenMesh::Decimater::ModQuadricT<Mesh> {
     }
 };
 
-// What progress counts to: the thousandths of a budget (the context's, > 0), else the
-// input's vertices.
-std::size_t progress_total(const visdb::BakeMesh& in, double budget) {
-    return budget > 0.0 ? 1000 : std::max<std::size_t>(in.positions.size(), 1);
-}
+// The progress of a simplification's parts, decimated side by side: each part's own count
+// (the area-weighted error its collapses added, or without a budget its collapses), and
+// their sum reported as the thousandths of the whole budget spent, or the vertices removed
+// out of the mesh's. Reports come from the decimating threads, one at a time, never falling.
+class PartsProgress {
+  public:
+    PartsProgress(const SimplifyProgress* progress, std::size_t parts, double budget,
+                  std::size_t vertices)
+        : m_progress(progress),
+          m_budget(budget),
+          m_total(budget > 0.0 ? 1000 : std::max<std::size_t>(vertices, 1)),
+          m_count(parts) {}
+
+    std::size_t total() const { return m_total; }
+    bool reporting() const { return m_progress != nullptr; }
+
+    /// Part `part` has spent `spent` of the area-weighted error in `collapses` collapses.
+    void update(std::size_t part, double spent, std::size_t collapses) {
+        m_count[part].store(m_budget > 0.0 ? spent : double(collapses), std::memory_order_relaxed);
+        const std::unique_lock lock(m_mutex, std::try_to_lock);
+        if (!lock.owns_lock()) return;
+        double sum = 0.0;
+        for (const auto& c : m_count) sum += c.load(std::memory_order_relaxed);
+        const double done = m_budget > 0.0 ? 1000.0 * sum / m_budget : sum;
+        m_done = std::max(m_done, std::min(static_cast<std::size_t>(done), m_total - 1));
+        (*m_progress)(m_done, m_total);
+    }
+
+  private:
+    const SimplifyProgress* m_progress;
+    double m_budget;
+    std::size_t m_total;
+    std::vector<std::atomic<double>> m_count;
+    std::mutex m_mutex;
+    std::size_t m_done = 0;
+};
 
 // With a budget (> 0), stops the decimation after the first collapse past it, remembering
-// how many came before it. Reports progress every kProgressStep collapses: the thousandths
-// of the budget spent, or without one the collapses, out of `total` (progress_total).
+// how many came before it. Every kProgressStep collapses, hands its part's count to the
+// progress (PartsProgress).
 class BudgetObserver : public OpenMesh::Decimater::Observer {
   public:
-    BudgetObserver(const ModIrradianceBound& bound, double budget, std::size_t total,
-                   const SimplifyProgress* progress)
-        : Observer(1), m_bound(bound), m_budget(budget), m_total(total), m_progress(progress) {}
+    BudgetObserver(const ModIrradianceBound& bound, double budget, PartsProgress* progress,
+                   std::size_t part)
+        : Observer(1), m_bound(bound), m_budget(budget), m_progress(progress), m_part(part) {}
     void notify(std::size_t step) override {
         if (m_budget <= 0.0 || m_bound.spent() <= m_budget) within = step;
-        if (m_progress && step % kProgressStep == 0) report(step);
+        if (m_progress && step % kProgressStep == 0)
+            m_progress->update(m_part, m_bound.spent(), step);
     }
     bool abort() const override { return m_budget > 0.0 && m_bound.spent() > m_budget; }
-
-    /// Progress after `step` collapses (never done = total: the caller says when it ends).
-    void report(std::size_t step) const {
-        const std::size_t done =
-            m_budget > 0.0 ? static_cast<std::size_t>(1000.0 * m_bound.spent() / m_budget) : step;
-        (*m_progress)(std::min(done, m_total - 1), m_total);
-    }
 
     std::size_t within = 0;  ///< collapses carried out within the budget
 
@@ -440,8 +470,8 @@ class BudgetObserver : public OpenMesh::Decimater::Observer {
     static constexpr std::size_t kProgressStep = 64;
     const ModIrradianceBound& m_bound;
     double m_budget;
-    std::size_t m_total;
-    const SimplifyProgress* m_progress;
+    PartsProgress* m_progress;
+    std::size_t m_part;
 };
 
 void check_mesh(const visdb::BakeMesh& mesh, const SimplifyOptions& options) {
@@ -475,7 +505,8 @@ struct Built {
     std::size_t locked_faces = 0;
 };
 
-void build(const visdb::BakeMesh& in, const glm::dvec3& origin, Built& out) {
+void build(const visdb::BakeMesh& in, std::span<const std::uint32_t> triangles,
+           const glm::dvec3& origin, Built& out) {
     Mesh& m = out.mesh;
     m.add_property(out.source);
     m.add_property(out.surface);
@@ -488,16 +519,14 @@ void build(const visdb::BakeMesh& in, const glm::dvec3& origin, Built& out) {
         m.property(out.source, v) = i;
         return v;
     };
-    // made[i]: the mesh vertices made from bake vertex i, with their surface
-    std::vector<std::vector<std::pair<std::uint32_t, Mesh::VertexHandle>>> made(
-        in.positions.size());
+    // The mesh vertex made from (bake vertex, surface)
+    std::unordered_map<std::uint64_t, Mesh::VertexHandle> made;
     const auto vertex_of = [&](std::uint32_t i, std::uint32_t surface) {
-        for (const auto& [s, v] : made[i])
-            if (s == surface) return v;
-        made[i].emplace_back(surface, add_vertex(i));
-        return made[i].back().second;
+        const auto [it, fresh] = made.try_emplace(std::uint64_t{i} << 32 | surface);
+        if (fresh) it->second = add_vertex(i);
+        return it->second;
     };
-    for (std::size_t t = 0; t < in.triangles.size(); ++t) {
+    for (const std::uint32_t t : triangles) {
         const glm::u32vec3 tri = in.triangles[t];
         const std::uint32_t surface = in.triangle_surface[t];
         Mesh::FaceHandle f;
@@ -515,10 +544,10 @@ void build(const visdb::BakeMesh& in, const glm::dvec3& origin, Built& out) {
     }
 }
 
-// Locks every vertex of `b` whose bake vertex lies within `tolerance` of another bake vertex
+// Flags every bake vertex that lies within `tolerance` of another bake vertex
 // (SimplifyOptions::keep_shared): twins where regions meet, also those a mesher's rounding
 // left a few ulps apart. Found through a hash grid of cells 4 × `tolerance` wide.
-void lock_shared(const visdb::BakeMesh& in, double tolerance, Built& b) {
+std::vector<char> shared_vertices(const visdb::BakeMesh& in, double tolerance) {
     const double cell = std::max(4.0 * tolerance, std::numeric_limits<double>::min());
     using Key = std::array<std::int64_t, 3>;
     // (clamped: a tiny model far from the origin must not overflow the cell numbers)
@@ -563,9 +592,7 @@ void lock_shared(const visdb::BakeMesh& in, double tolerance, Built& b) {
                             shared[i] = 1;
                 }
     }
-    Mesh& m = b.mesh;
-    for (auto v : m.vertices())
-        if (shared[m.property(b.source, v)]) m.status(v).set_locked(true);
+    return shared;
 }
 
 // The least-squares refit of the kept vertices' values: the values that minimise the
@@ -707,53 +734,35 @@ double brightest(const visdb::BakeMesh& mesh) {
     return top;
 }
 
-// The simplified bake mesh from the decimated OpenMesh mesh: kept vertices carry the bake's
-// exact position, normal, irradiance and radiosity.
-visdb::BakeMesh collect(const visdb::BakeMesh& in, const Built& b, const Context& c,
-                        std::vector<std::uint32_t>* kept) {
-    const Mesh& m = b.mesh;
-    visdb::BakeMesh out;
-    if (kept) kept->clear();
-    std::vector<std::uint32_t> index(m.n_vertices(), std::numeric_limits<std::uint32_t>::max());
-    for (auto f : m.faces()) {
-        glm::u32vec3 tri{};
-        int k = 0;
-        for (auto v : m.fv_range(f)) {
-            std::uint32_t& id = index[v.idx()];
-            if (id == std::numeric_limits<std::uint32_t>::max()) {
-                const std::uint32_t src = m.property(b.source, v);
-                id = static_cast<std::uint32_t>(out.positions.size());
-                out.positions.push_back(in.positions[src]);
-                if (kept) kept->push_back(src);
-                out.normals.push_back(in.normals[src]);
-                const Vec3& h = m.property(c.irradiance, v);
-                const Vec3& r = m.property(c.radiosity, v);
-                out.irradiance.emplace_back(h[0], h[1], h[2]);
-                out.radiosity.emplace_back(r[0], r[1], r[2]);
-            }
-            tri[k++] = id;
-        }
-        out.triangles.push_back(tri);
-        out.triangle_surface.push_back(m.property(b.surface, f));
-    }
-    return out;
-}
-
-// One decimation of a bake: the OpenMesh mesh with its samples, and what the modules counted.
+// One decimation of a part of a bake: the OpenMesh mesh with its samples, and what the
+// modules counted.
 struct Decimation {
     Built b;
     Context context;
-    double total = 0.0;  // the area-weighted irradiance of the bake (mean of the channels)
+    double total = 0.0;  // the area-weighted irradiance of the part (mean of the channels)
     double spent = 0.0;  // the area-weighted error the collapses added
     std::size_t within_budget = 0;  // collapses before the first past the budget
     std::size_t stale = 0;
 };
 
-// Sets up `d` from `in` and decimates it: at most `limit` collapses when given; progress to
-// `progress` when not null.
-void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
-              std::optional<std::size_t> limit, const SimplifyProgress* progress, Decimation& d) {
-    build(in, visdb::local_origin(in.positions), d.b);
+// What the parts of one simplification share: the whole mesh's values, so that a part
+// decimates as it would inside the whole.
+struct Whole {
+    const visdb::BakeMesh& in;
+    const SimplifyOptions& options;
+    glm::dvec3 origin{0.0};    // of the local frame (the bake's survey coordinates)
+    double size = 1.0;         // the diagonal of the mesh's box (m)
+    double floor = 0.0;        // the bound's absolute floor (options.floor × brightest)
+    std::vector<char> shared;  // per bake vertex: has a twin (keep_shared)
+};
+
+// Sets up `d` from the triangles `part` of the bake and decimates them: at most `limit`
+// collapses when given; progress to `progress` (as part `index`) when not null.
+void decimate(const Whole& w, std::span<const std::uint32_t> part, std::optional<std::size_t> limit,
+              PartsProgress* progress, std::size_t index, Decimation& d) {
+    const visdb::BakeMesh& in = w.in;
+    const SimplifyOptions& options = w.options;
+    build(in, part, w.origin, d.b);
     Mesh& m = d.b.mesh;
     Context& context = d.context;
 
@@ -780,8 +789,7 @@ void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
     context.error = options.error;
     context.refit = options.refit;
     context.max_held = options.max_held;
-    const double floor = options.floor * brightest(in);
-    context.floor = Vec3(floor, floor, floor);
+    context.floor = Vec3(w.floor, w.floor, w.floor);
     for (auto v : m.vertices()) {
         const Sample& s = m.property(context.own, v);
         d.total += s.weight * (s.irradiance[0] + s.irradiance[1] + s.irradiance[2]) / 3.0;
@@ -795,24 +803,16 @@ void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
     ModIrradianceBound::Handle bound;
     decimater.add(quadric);
     decimater.add(bound);
-    Vec3 lo(std::numeric_limits<double>::max());
-    Vec3 hi(std::numeric_limits<double>::lowest());
-    for (auto v : m.vertices()) {
-        lo.minimize(m.point(v));
-        hi.maximize(m.point(v));
-    }
-    const double size = m.n_vertices() ? (hi - lo).norm() : 1.0;
-    decimater.module(quadric).set_max_err(1e-12 * size * size * size * size, true);
-    context.straight = kStraight * size;
+    decimater.module(quadric).set_max_err(1e-12 * w.size * w.size * w.size * w.size, true);
+    context.straight = kStraight * w.size;
     // Twins where regions meet: as near as an outline must be to run straight
-    if (options.keep_shared) lock_shared(in, context.straight, d.b);
+    if (options.keep_shared)
+        for (auto v : m.vertices())
+            if (w.shared[m.property(d.b.source, v)]) m.status(v).set_locked(true);
     decimater.module(bound).set_context(&context);
     if (!decimater.initialize()) throw ExportError("simplify: OpenMesh's decimater did not start");
-    const SimplifyProgress* const reported = progress && *progress ? progress : nullptr;
-    BudgetObserver observer(decimater.module(bound), context.budget,
-                            progress_total(in, context.budget), reported);
-    if (reported) observer.report(0);
-    if (context.budget > 0.0 || reported) decimater.set_observer(&observer);
+    BudgetObserver observer(decimater.module(bound), context.budget, progress, index);
+    if (context.budget > 0.0 || progress) decimater.set_observer(&observer);
     if (!limit)
         decimater.decimate();
     else if (*limit > 0)
@@ -822,6 +822,94 @@ void decimate(const visdb::BakeMesh& in, const SimplifyOptions& options,
     d.spent = decimater.module(bound).spent();
     d.within_budget = observer.within;
     d.stale = decimater.module(bound).stale();
+}
+
+// The parts of a decimation: whole surfaces (no collapse reaches from one surface into
+// another), dealt out largest first, each to the part with the fewest triangles so far (the
+// first of those), into at most kParts parts: about the same size, and the same parts
+// whatever the number of threads. Each part's triangles in the bake's order.
+constexpr std::size_t kParts = 16;
+
+// Without exact_budget, how far the whole may pass the budget (a fraction of it) through the
+// parts' last collapses: each passes its own share by that collapse's error, which for a small
+// part can be a large share of its own (the furnished room's parts passed the whole by 2.6 %)
+constexpr double kPastBudget = 1e-3;
+
+std::vector<std::vector<std::uint32_t>> parts_of(const visdb::BakeMesh& in) {
+    std::unordered_map<std::uint32_t, std::size_t> count;
+    for (const std::uint32_t s : in.triangle_surface) ++count[s];
+    std::vector<std::pair<std::size_t, std::uint32_t>> surfaces;  // (triangles, surface)
+    surfaces.reserve(count.size());
+    for (const auto& [s, n] : count) surfaces.emplace_back(n, s);
+    std::sort(surfaces.begin(), surfaces.end(), [](const auto& a, const auto& b) {
+        return a.first > b.first || (a.first == b.first && a.second < b.second);
+    });
+    const std::size_t n = std::min(kParts, surfaces.size());
+    std::vector<std::size_t> size(n, 0);
+    std::unordered_map<std::uint32_t, std::uint32_t> part_of;
+    for (const auto& [triangles, s] : surfaces) {
+        const auto k =
+            static_cast<std::size_t>(std::min_element(size.begin(), size.end()) - size.begin());
+        size[k] += triangles;
+        part_of[s] = static_cast<std::uint32_t>(k);
+    }
+    std::vector<std::vector<std::uint32_t>> parts(n);
+    for (std::size_t k = 0; k < n; ++k) parts[k].reserve(size[k]);
+    for (std::uint32_t t = 0; t < in.triangles.size(); ++t)
+        parts[part_of[in.triangle_surface[t]]].push_back(t);
+    return parts;
+}
+
+// The simplified bake mesh from the decimated parts: triangles by surface (a surface lies in
+// one part: its faces in that part's order), vertices in the order the triangles first use
+// them; kept vertices carry the bake's exact position and normal, and the irradiance and
+// radiosity of the decimation (the bake's, or the refit's).
+visdb::BakeMesh collect(const visdb::BakeMesh& in,
+                        const std::vector<std::unique_ptr<Decimation>>& parts,
+                        std::vector<std::uint32_t>* kept) {
+    struct FaceOf {
+        std::uint32_t surface, part;
+        int face;
+    };
+    std::vector<FaceOf> faces;
+    for (std::uint32_t k = 0; k < parts.size(); ++k) {
+        const Built& b = parts[k]->b;
+        for (auto f : b.mesh.faces()) faces.push_back({b.mesh.property(b.surface, f), k, f.idx()});
+    }
+    std::stable_sort(faces.begin(), faces.end(),
+                     [](const FaceOf& a, const FaceOf& b) { return a.surface < b.surface; });
+    constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+    std::vector<std::vector<std::uint32_t>> index(parts.size());
+    for (std::size_t k = 0; k < parts.size(); ++k)
+        index[k].assign(parts[k]->b.mesh.n_vertices(), kNone);
+    visdb::BakeMesh out;
+    if (kept) kept->clear();
+    out.triangles.reserve(faces.size());
+    out.triangle_surface.reserve(faces.size());
+    for (const FaceOf& face : faces) {
+        const Decimation& d = *parts[face.part];
+        const Mesh& m = d.b.mesh;
+        glm::u32vec3 tri{};
+        int k = 0;
+        for (auto v : m.fv_range(Mesh::FaceHandle(face.face))) {
+            std::uint32_t& id = index[face.part][static_cast<std::size_t>(v.idx())];
+            if (id == kNone) {
+                const std::uint32_t src = m.property(d.b.source, v);
+                id = static_cast<std::uint32_t>(out.positions.size());
+                out.positions.push_back(in.positions[src]);
+                if (kept) kept->push_back(src);
+                out.normals.push_back(in.normals[src]);
+                const Vec3& h = m.property(d.context.irradiance, v);
+                const Vec3& r = m.property(d.context.radiosity, v);
+                out.irradiance.emplace_back(h[0], h[1], h[2]);
+                out.radiosity.emplace_back(r[0], r[1], r[2]);
+            }
+            tri[k++] = id;
+        }
+        out.triangles.push_back(tri);
+        out.triangle_surface.push_back(face.surface);
+    }
+    return out;
 }
 
 }  // namespace
@@ -843,31 +931,83 @@ visdb::BakeMesh simplify(const visdb::BakeMesh& in, const SimplifyOptions& optio
                          const SimplifyProgress& progress) {
     const auto start = std::chrono::steady_clock::now();
     check_mesh(in, options);
-    auto d = std::make_unique<Decimation>();
-    decimate(in, options, std::nullopt, &progress, *d);
-    if (options.exact_budget && d->context.budget > 0.0 && d->spent > d->context.budget) {
-        // The last collapse went past the budget: the same decimation again (it is
-        // deterministic), stopped before it
-        const std::size_t within = d->within_budget;
-        d = std::make_unique<Decimation>();
-        decimate(in, options, within, nullptr, *d);  // (its progress was reported)
+    // What every part takes from the whole mesh
+    Whole whole{.in = in, .options = options, .shared = {}};
+    whole.origin = visdb::local_origin(in.positions);
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(std::numeric_limits<double>::lowest());
+    double total = 0.0;  // the area-weighted irradiance, for the progress
+    for (const glm::u32vec3& t : in.triangles) {
+        const glm::dvec3 p[3] = {in.positions[t.x] - whole.origin, in.positions[t.y] - whole.origin,
+                                 in.positions[t.z] - whole.origin};
+        double h = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            lo = glm::min(lo, p[k]);
+            hi = glm::max(hi, p[k]);
+            const glm::vec3 e = in.irradiance[t[k]];
+            h += (double(e.x) + double(e.y) + double(e.z)) / 3.0;
+        }
+        total += glm::length(glm::cross(p[1] - p[0], p[2] - p[0])) / 6.0 * h;
     }
-    if (progress) {
-        const std::size_t total = progress_total(in, d->context.budget);
-        progress(total, total);
+    whole.size = in.triangles.empty() ? 1.0 : glm::length(hi - lo);
+    whole.floor = options.floor * brightest(in);
+    if (options.keep_shared) whole.shared = shared_vertices(in, kStraight * whole.size);
+
+    // The parts, side by side, each with the budget's share of its own irradiance (so that
+    // the whole keeps within the budget)
+    const std::vector<std::vector<std::uint32_t>> parts = parts_of(in);
+    PartsProgress reports(progress ? &progress : nullptr, parts.size(), options.budget * total,
+                          in.positions.size());
+    if (reports.reporting()) progress(0, reports.total());
+    std::vector<std::unique_ptr<Decimation>> done(parts.size());
+    // A part whose last collapse went past its share: the same decimation again (it is
+    // deterministic), stopped before it
+    const auto redo = [&](std::size_t k) {
+        const std::size_t within = done[k]->within_budget;
+        done[k] = std::make_unique<Decimation>();
+        decimate(whole, parts[k], within, nullptr, k, *done[k]);  // (its progress was reported)
+    };
+    const auto past = [&](std::size_t k) { return done[k]->spent - done[k]->context.budget; };
+    tbb::parallel_for(std::size_t{0}, parts.size(), [&](std::size_t k) {
+        done[k] = std::make_unique<Decimation>();
+        decimate(whole, parts[k], std::nullopt, reports.reporting() ? &reports : nullptr, k,
+                 *done[k]);
+        if (options.exact_budget && done[k]->context.budget > 0.0 && past(k) > 0.0) redo(k);
+    });
+    if (!options.exact_budget && options.budget > 0.0) {
+        // The parts' last collapses may pass their shares; those that pass most are redone
+        // until the whole passes the budget by at most kPastBudget of it
+        double excess = 0.0, budget = 0.0;
+        std::vector<std::size_t> order;
+        for (std::size_t k = 0; k < done.size(); ++k) {
+            excess += past(k);
+            budget += done[k]->context.budget;
+            if (past(k) > 0.0) order.push_back(k);
+        }
+        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+            return past(a) > past(b) || (past(a) == past(b) && a < b);
+        });
+        std::size_t redone = 0;
+        while (redone < order.size() && excess > kPastBudget * budget)
+            excess -= past(order[redone++]);
+        tbb::parallel_for(std::size_t{0}, redone, [&](std::size_t i) { redo(order[i]); });
     }
-    visdb::BakeMesh out = collect(in, d->b, d->context, kept);
+    if (reports.reporting()) progress(reports.total(), reports.total());
+    visdb::BakeMesh out = collect(in, done, kept);
     if (stats) {
-        *stats = {
-            .triangles_before = in.triangles.size(),
-            .triangles_after = out.triangles.size(),
-            .vertices_before = in.positions.size(),
-            .vertices_after = out.positions.size(),
-            .locked_faces = d->b.locked_faces,
-            .stale_collapses = d->stale,
-            .mean_change = d->total > 0.0 ? d->spent / d->total : 0.0,
-            .seconds =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+        SimplifyStats s{.triangles_before = in.triangles.size(),
+                        .triangles_after = out.triangles.size(),
+                        .vertices_before = in.positions.size(),
+                        .vertices_after = out.positions.size()};
+        double spent = 0.0, weighed = 0.0;
+        for (const auto& d : done) {
+            s.locked_faces += d->b.locked_faces;
+            s.stale_collapses += d->stale;
+            spent += d->spent;
+            weighed += d->total;
+        }
+        s.mean_change = weighed > 0.0 ? spent / weighed : 0.0;
+        s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        *stats = s;
     }
     return out;
 }

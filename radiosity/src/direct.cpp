@@ -8,7 +8,9 @@
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <map>
 #include <numbers>
+#include <utility>
 
 #include "abrad/radiosity/exact.h"
 #include "abrad/radiosity/stage.h"
@@ -50,6 +52,7 @@ DirectField::DirectField(const visdb::Scene& scene)
         throw InputError(
             "the scene has no light sources (no material with emittance > 0, no luminaire)");
     }
+    m_quads = LightQuads(m_patches, m_emittance, m_lights);
 }
 
 double segment_crossing(const Patch& p, const glm::dvec3& a, const glm::dvec3& b) {
@@ -200,18 +203,70 @@ visdb::Rgb luminaires_irradiance(std::span<const visdb::Luminaire> luminaires,
 visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
                             std::span<const std::uint32_t> lights, const Bvh& bvh,
                             const glm::dvec3& x, const glm::dvec3& n,
-                            std::vector<const Patch*>& occ, double reach) {
-    return exact_irradiance_with(patches, emittance, lights, x, n, occ, reach,
-                                 [&](std::size_t k, std::vector<const Patch*>& out) {
-                                     for_each_shadow_candidate(
-                                         bvh, patches, lights[k], x,
-                                         [&](std::uint32_t id) { out.push_back(&patches[id]); });
-                                 });
+                            std::vector<const Patch*>& occ, double reach, const LightQuads* quads) {
+    return exact_irradiance_with(
+        patches, emittance, lights, x, n, occ, reach,
+        [&](std::size_t k, std::vector<const Patch*>& out) {
+            for_each_shadow_candidate(bvh, patches, lights[k], x,
+                                      [&](std::uint32_t id) { out.push_back(&patches[id]); });
+        },
+        quads);
+}
+
+LightQuads::LightQuads(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
+                       std::span<const std::uint32_t> lights) {
+    if (lights.empty()) return;
+    m_quad_of.assign(static_cast<std::size_t>(*std::max_element(lights.begin(), lights.end())) + 1,
+                     kNoPatch);
+    // The lights by directed edge: the corners' bits
+    using Corner = std::array<double, 3>;
+    const auto bits = [](const glm::dvec3& p) { return Corner{p.x, p.y, p.z}; };
+    std::map<std::pair<Corner, Corner>, std::uint32_t> by_edge;
+    for (const std::uint32_t l : lights)
+        for (int e = 0; e < 3; ++e)
+            by_edge.emplace(std::pair{bits(patches[l].p[e]), bits(patches[l].p[(e + 1) % 3])}, l);
+    const auto unit_normal = [&](std::uint32_t l) {
+        return glm::normalize(cross_normal(patches[l]));
+    };
+    for (const std::uint32_t l : lights) {
+        if (m_quad_of[l] != kNoPatch) continue;
+        const Patch& a = patches[l];
+        if (!(glm::length(cross_normal(a)) > 0.0)) continue;
+        for (int e = 0; e < 3; ++e) {
+            // The neighbour across edge (p[e], p[e+1]) runs it the other way
+            const auto it = by_edge.find({bits(a.p[(e + 1) % 3]), bits(a.p[e])});
+            if (it == by_edge.end() || it->second == l || m_quad_of[it->second] != kNoPatch)
+                continue;
+            const std::uint32_t o = it->second;
+            const Patch& b = patches[o];
+            if (emittance[o] != emittance[l] || !(glm::length(cross_normal(b)) > 0.0) ||
+                glm::length(unit_normal(o) - unit_normal(l)) > 1e-9)
+                continue;
+            // b's corner d off the shared edge: the edge a.p[e] -> a.p[e+1] becomes the two
+            // a.p[e] -> d -> a.p[e+1], so the quadrilateral goes round as a does
+            glm::dvec3 d(0.0);
+            for (const glm::dvec3& q : b.p)
+                if (bits(q) != bits(a.p[e]) && bits(q) != bits(a.p[(e + 1) % 3])) d = q;
+            const std::array<glm::dvec3, 4> c = {a.p[e], d, a.p[(e + 1) % 3], a.p[(e + 2) % 3]};
+            // Convex: every corner turns the same way as the triangles face
+            const glm::dvec3 nl = cross_normal(a);
+            bool convex = true;
+            for (int k = 0; k < 4; ++k)
+                convex = convex && glm::dot(glm::cross(c[(k + 1) % 4] - c[k],
+                                                       c[(k + 2) % 4] - c[(k + 1) % 4]),
+                                            nl) > 0.0;
+            if (!convex) continue;
+            m_quad_of[l] = m_quad_of[o] = static_cast<std::uint32_t>(m_quads.size());
+            m_quads.push_back({std::min(l, o), std::max(l, o), c});
+            break;
+        }
+    }
 }
 
 visdb::Rgb DirectField::irradiance(const glm::dvec3& x, const glm::dvec3& n) const {
     std::vector<const Patch*> occluders;
-    visdb::Rgb h = exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders);
+    visdb::Rgb h =
+        exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders, 0.0, &m_quads);
     return h + luminaires_irradiance(m_luminaires, m_patches, m_bvh, x, n);
 }
 

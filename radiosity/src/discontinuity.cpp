@@ -188,7 +188,8 @@ class RegionShafts {
           m_reach(reach),
           m_tile(tile),
           m_once(std::make_unique<std::once_flag[]>(regions.planar.size())),
-          m_frames(regions.planar.size()) {
+          m_frames(regions.planar.size()),
+          m_quads(g.patches, g.emittance, g.lights) {
         ABRAD_DCHECK(g.patches.empty() || !m_occluders.empty(),
                      "the bake makes the regions' outlines before meshing");
     }
@@ -212,9 +213,10 @@ class RegionShafts {
                 }
             };
             h = exact_irradiance_with(m_g.patches, m_g.emittance, lights, x, n, occ, m_reach,
-                                      candidates);
+                                      candidates, &m_quads);
         } else {
-            h = exact_irradiance(m_g.patches, m_g.emittance, lights, m_bvh, x, n, occ, m_reach);
+            h = exact_irradiance(m_g.patches, m_g.emittance, lights, m_bvh, x, n, occ, m_reach,
+                                 &m_quads);
         }
         for (const std::uint32_t k : m_sources.luminaires[r])
             h += luminaires_irradiance({&m_g.luminaires[k], 1}, m_g.patches, m_bvh, x, n, m_reach);
@@ -317,6 +319,7 @@ class RegionShafts {
     double m_reach, m_tile;
     std::unique_ptr<std::once_flag[]> m_once;
     mutable std::vector<Frame> m_frames;
+    const LightQuads m_quads;  // the light triangles two by two as quadrilaterals
 };
 
 // A split point of a region, and an exact value at a point of a region (a vertex or an edge's

@@ -181,9 +181,17 @@ void bound_all(const std::vector<Piece>& pieces, glm::dvec2& lo, glm::dvec2& hi)
 
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
                            std::span<const Patch* const> occluders, VisibleStats* stats) {
-    // Light plane: unit normal _nl_ (front), signed height _sx_ of x above it
-    const glm::dvec3 l0 = light.p[0];
-    const glm::dvec3 area = glm::cross(light.p[1] - l0, light.p[2] - l0);
+    return visible_form_factor(x, n, std::span<const glm::dvec3>(light.p), occluders, stats);
+}
+
+double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n,
+                           std::span<const glm::dvec3> light,
+                           std::span<const Patch* const> occluders, VisibleStats* stats) {
+    // Light plane: unit normal _nl_ (front, from its first three corners), signed height _sx_
+    // of x above it
+    if (light.size() < 3 || light.size() > 8) return 0.0;
+    const glm::dvec3 l0 = light[0];
+    const glm::dvec3 area = glm::cross(light[1] - l0, light[2] - l0);
     const double area_len = glm::length(area);
     if (area_len <= 0.0) return 0.0;
     const glm::dvec3 nl = area / area_len;
@@ -193,12 +201,12 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch
 
     // Clip the light to the point's hemisphere (strictly above its tangent plane)
     Polygon3 lit;
-    for (const auto& p : light.p) lit.push_back(p);
+    for (const auto& p : light) lit.push_back(p);
     lit = clip_polygon(lit, [&](const glm::dvec3& q) { return glm::dot(q - x, n); });
     if (lit.size() < 3) return 0.0;
 
     // 2D frame (e1, e2) in the light plane, counter-clockwise seen from the front
-    const glm::dvec3 e1 = glm::normalize(light.p[1] - l0);
+    const glm::dvec3 e1 = glm::normalize(light[1] - l0);
     const LightPlane lp{l0, nl, e1, glm::cross(nl, e1), x, n, sx, scale};
 
     std::vector<Piece> pieces(1);

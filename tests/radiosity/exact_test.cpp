@@ -7,6 +7,7 @@
 #include <numbers>
 #include <random>
 
+#include "abrad/radiosity/direct.h"
 #include "analytic.h"
 
 namespace abrad::radiosity {
@@ -156,6 +157,61 @@ TEST(ExactShading, TiltedReceiverAgainstQuadrature) {
                 if (cx > 0) sum += cx * cl / (std::numbers::pi * d2) * da;
             }
         EXPECT_NEAR(visible(c.x, c.n, light, {}), sum, 2e-4 * sum + 1e-7);
+    }
+}
+
+// Two light triangles that make a convex quadrilateral are seen at once (LightQuads): the
+// square light past an opaque and a translucent square, the translucent one across the
+// square's diagonal (a candidate of both triangles, so it must be subtracted once), gives the
+// closed form with and without the pairs. A dart (coplanar, sharing an edge, not convex) and a
+// pair of unequal emittance stay two triangles each.
+TEST(ExactShading, LightQuadsSeeTheLightOfTheirTwoTriangles) {
+    std::vector<Patch> patches = light_square();
+    std::vector<visdb::Rgb> emittance(2, visdb::Rgb(100.0));
+    // The dart at z = 2.5, facing down: (10, 0), (10, 2), (14, 1) and across their first edge
+    // (8, 3), which makes the corner (10, 2) reflex
+    patches.push_back({{{10, 0, 2.5}, {10, 2, 2.5}, {14, 1, 2.5}}, 1.0});
+    patches.push_back({{{10, 2, 2.5}, {10, 0, 2.5}, {8, 3, 2.5}}, 1.0});
+    emittance.insert(emittance.end(), 2, visdb::Rgb(50.0));
+    // A square of two emittances at z = 2.5, facing down
+    add_quad(patches, {-10.5, -0.5, 2.5}, {-10.5, 0.5, 2.5}, {-9.5, 0.5, 2.5}, {-9.5, -0.5, 2.5});
+    emittance.push_back(visdb::Rgb(10.0));
+    emittance.push_back(visdb::Rgb(20.0));
+    const std::vector<std::uint32_t> lights = {0, 1, 2, 3, 4, 5};
+    const double alpha = 0.4;
+    add_quad(patches, {-0.2, -0.1, 1}, {-0.2, 0.25, 1}, {0.15, 0.25, 1}, {0.15, -0.1, 1}, alpha);
+    add_quad(patches, {0.3, -0.45, 1}, {0.3, -0.35, 1}, {0.4, -0.35, 1}, {0.4, -0.45, 1});
+    emittance.resize(patches.size(), visdb::Rgb(0.0));
+
+    const LightQuads quads(patches, emittance, lights);
+    ASSERT_EQ(quads.size(), 1u);
+    ASSERT_NE(quads.quad_of(0), nullptr);
+    EXPECT_EQ(quads.quad_of(0), quads.quad_of(1));
+    for (const std::uint32_t l : {2u, 3u, 4u, 5u}) EXPECT_EQ(quads.quad_of(l), nullptr) << l;
+
+    const Bvh bvh(patches);
+    std::vector<const Patch*> occ;
+    for (const glm::dvec3 x : {glm::dvec3(0, 0, 0), glm::dvec3(0.3, -0.2, 0),
+                               glm::dvec3(-0.6, 0.4, 0), glm::dvec3(0.1, 0.05, 0.5)}) {
+        // The square's light, closed form: all of it less α of the translucent square's
+        // shadow and all of the small opaque one's (disjoint from it), from height 2 − z
+        const double s = (2.0 - x.z) / (1.0 - x.z);  // from x onto the light's plane
+        const auto shadow = [&](double a0, double a1, double b0, double b1) {
+            return clipped(x, x.x + s * (a0 - x.x), x.x + s * (a1 - x.x), x.y + s * (b0 - x.y),
+                           x.y + s * (b1 - x.y));
+        };
+        const double ff = clipped(x, -9, 9, -9, 9) - alpha * shadow(-0.2, 0.15, -0.1, 0.25) -
+                          shadow(0.3, 0.4, -0.45, -0.35);
+        const visdb::Rgb pairs =
+            exact_irradiance(patches, emittance, lights, bvh, x, {0, 0, 1}, occ, 0.0, &quads);
+        const visdb::Rgb alone =
+            exact_irradiance(patches, emittance, lights, bvh, x, {0, 0, 1}, occ);
+        // The other lights' part (the same either way: they are not paired)
+        const std::vector<std::uint32_t> others = {2, 3, 4, 5};
+        const visdb::Rgb rest =
+            exact_irradiance(patches, emittance, others, bvh, x, {0, 0, 1}, occ);
+        EXPECT_NEAR(pairs.x - rest.x, 100.0 * ff, 1e-9) << x.x << ", " << x.y << ", " << x.z;
+        EXPECT_NEAR(alone.x, pairs.x, 1e-10 * alone.x);
     }
 }
 

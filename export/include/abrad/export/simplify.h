@@ -28,12 +28,16 @@ struct SimplifyOptions {
     bool refit = false;
     /// The area-weighted mean change of irradiance the whole simplification may add, as a
     /// fraction of the bake's area-weighted mean irradiance (0: none; then `error` alone
-    /// limits it). The collapses that add the least go first.
+    /// limits it). The mesh is decimated in parts side by side (whole surfaces dealt into at
+    /// most 16 parts of about the same size, the same whatever the number of threads), each
+    /// within this fraction of its own area-weighted irradiance, so the whole within it too;
+    /// in each part the collapses that add the least go first.
     double budget = 0.0;
-    /// With a budget, the collapse that passes it is found only once made. True: the
-    /// decimation is redone (it is deterministic) and stopped before that collapse, so that the
-    /// budget bounds the change. False: that last collapse is kept (the change may pass the
-    /// budget by one collapse's share), in half the time.
+    /// With a budget, the collapse that passes a part's share is found only once made. True:
+    /// that part's decimation is redone (it is deterministic) and stopped before that collapse,
+    /// so that the budget bounds the change. False: those last collapses are kept, in half the
+    /// time, but for the parts that pass their shares most, redone so, until the whole passes
+    /// the budget by at most a thousandth of it.
     bool exact_budget = true;
     /// Keep every vertex at the position of another vertex of the mesh (within 1e-7 of the
     /// mesh's size: where regions or surfaces meet), so that a mesh without T-vertices, such as
@@ -47,10 +51,11 @@ struct SimplifyOptions {
     std::size_t max_held = 0;
 };
 
-/// Called now and then while the decimation runs (on the calling thread) with (done,
-/// total): with a budget, the thousandths of it spent (total 1000; the cheapest collapses go
-/// first, so a rate from the start overestimates what is left); without, the vertices
-/// removed out of the mesh's vertices. Ends with done = total.
+/// Called now and then while the decimation runs (from the threads decimating the parts,
+/// one call at a time) with (done, total): with a budget, the thousandths of it spent (total
+/// 1000; the cheapest collapses go first, so a rate from the start overestimates what is
+/// left); without, the vertices removed out of the mesh's vertices. Starts with done = 0 and
+/// ends with done = total (on the calling thread); done never falls.
 using SimplifyProgress = std::function<void(std::size_t done, std::size_t total)>;
 
 /// What a simplification did.

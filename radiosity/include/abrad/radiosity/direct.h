@@ -3,6 +3,8 @@
 // every occluder between the point and the light (conservative bounding-volume candidates,
 // exact clipping in visible_form_factor).
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -30,28 +32,94 @@ void for_each_shadow_candidate(const Bvh& bvh, std::span<const Patch> patches, s
     });
 }
 
+/// Light triangles that make a convex quadrilateral two by two: two triangles that share an
+/// edge (the same two corners, bit for bit, in opposite directions), lie in one plane (unit
+/// normals within 1e-9) and give the same emittance, and whose union is convex. Most lights
+/// of a building are rectangles, two triangles each; the exact evaluation then sees the
+/// quadrilateral past the union of both triangles' occluder candidates once (each candidate
+/// tested and subtracted once, not twice). Pairs are made in the order of `lights`, each
+/// triangle with the first neighbour across its edges (in edge order) still free.
+class LightQuads {
+  public:
+    struct Quad {
+        std::uint32_t first = kNoPatch, second = kNoPatch;  ///< the two light triangles
+        std::array<glm::dvec3, 4> corners;  ///< counter-clockwise seen from the front
+    };
+
+    LightQuads() = default;
+    LightQuads(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
+               std::span<const std::uint32_t> lights);
+
+    /// Light triangle l's quadrilateral, or null when it makes none.
+    const Quad* quad_of(std::uint32_t l) const {
+        return l < m_quad_of.size() && m_quad_of[l] != kNoPatch ? &m_quads[m_quad_of[l]] : nullptr;
+    }
+    std::size_t size() const { return m_quads.size(); }
+
+  private:
+    std::vector<std::uint32_t> m_quad_of;  // per patch id up to the largest light's
+    std::vector<Quad> m_quads;
+};
+
 /// exact_irradiance (below) with each light's occluder candidates from `candidates(k, occ)`,
-/// which appends to `occ` (emptied before each light) those that may lie between x and the
-/// light triangle patches[lights[k]]: exact_irradiance's shaft query, or a shorter list a
-/// caller filters alike (discontinuity.cpp's tiles). One loop, so both skip the same lights.
+/// which appends to `occ` those that may lie between x and the light triangle
+/// patches[lights[k]]: exact_irradiance's shaft query, or a shorter list a caller filters
+/// alike (discontinuity.cpp's tiles). One loop, so both skip the same lights. `lights` is
+/// ascending. With `quads`, two lights of `lights` that make a quadrilateral and both give
+/// light here (x in front, within reach) are seen as the quadrilateral, past the union of
+/// their candidates (the pyramid of x and the quadrilateral is the union of the two shafts);
+/// the same light in exact arithmetic, each occluder once.
 template <typename Candidates>
 visdb::Rgb exact_irradiance_with(std::span<const Patch> patches,
                                  std::span<const visdb::Rgb> emittance,
                                  std::span<const std::uint32_t> lights, const glm::dvec3& x,
                                  const glm::dvec3& n, std::vector<const Patch*>& occ, double reach,
-                                 Candidates&& candidates) {
-    visdb::Rgb h(0.0);
-    for (std::size_t k = 0; k < lights.size(); ++k) {
-        const Patch& lp = patches[lights[k]];
-        // Behind the light's plane (it gives nothing), or beyond its reach (cull.h)
-        if (glm::dot(x - lp.p[0], cross_normal(lp)) <= 0.0) continue;
+                                 Candidates&& candidates, const LightQuads* quads = nullptr) {
+    // Whether light triangle l gives light at x: in front of its plane, within its reach
+    // (cull.h)
+    const auto gives = [&](std::uint32_t l) {
+        const Patch& lp = patches[l];
+        if (glm::dot(x - lp.p[0], cross_normal(lp)) <= 0.0) return false;
         if (reach > 0.0) {
             const glm::dvec3 d = glm::abs(x - centroid(lp));
-            if (d.x > reach || d.y > reach || d.z > reach) continue;
+            if (d.x > reach || d.y > reach || d.z > reach) return false;
         }
+        return true;
+    };
+    const auto alone = [&](std::size_t k) {
         occ.clear();
         candidates(k, occ);
-        h += emittance[lights[k]] * visible_form_factor(x, n, lp, occ);
+        return emittance[lights[k]] * visible_form_factor(x, n, patches[lights[k]], occ);
+    };
+    visdb::Rgb h(0.0);
+    for (std::size_t k = 0; k < lights.size(); ++k) {
+        const std::uint32_t l = lights[k];
+        const LightQuads::Quad* quad = quads ? quads->quad_of(l) : nullptr;
+        std::size_t k2 = lights.size();  // the partner's place in `lights`, when listed
+        if (quad) {
+            const std::uint32_t other = quad->first == l ? quad->second : quad->first;
+            const auto it = std::lower_bound(lights.begin(), lights.end(), other);
+            if (it != lights.end() && *it == other)
+                k2 = static_cast<std::size_t>(it - lights.begin());
+        }
+        if (k2 == lights.size()) {  // alone
+            if (gives(l)) h += alone(k);
+            continue;
+        }
+        if (k2 < k) continue;  // seen with its partner, listed first
+        const bool first = gives(l), second = gives(lights[k2]);
+        if (first && second) {
+            occ.clear();
+            candidates(k, occ);
+            candidates(k2, occ);
+            std::sort(occ.begin(), occ.end());
+            occ.erase(std::unique(occ.begin(), occ.end()), occ.end());
+            h += emittance[l] * visible_form_factor(x, n, quad->corners, occ);
+        } else if (first) {
+            h += alone(k);
+        } else if (second) {
+            h += alone(k2);
+        }
     }
     return h;
 }
@@ -61,10 +129,12 @@ visdb::Rgb exact_irradiance_with(std::span<const Patch> patches,
 /// every occluder the BVH (built over `patches`) can place between x and the light. Lights
 /// whose plane x is not in front of give nothing; with `reach` > 0 metres, lights whose
 /// centroid is farther than `reach` along some axis are skipped (cull.h). `occ` is scratch.
+/// With `quads` (made over `lights` or more), pairs of lights seen as quadrilaterals.
 visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
                             std::span<const std::uint32_t> lights, const Bvh& bvh,
                             const glm::dvec3& x, const glm::dvec3& n,
-                            std::vector<const Patch*>& occ, double reach = 0.0);
+                            std::vector<const Patch*>& occ, double reach = 0.0,
+                            const LightQuads* quads = nullptr);
 
 /// Where the open segment (a, b) crosses the triangle `p`: the fraction t in (0, 1) along it,
 /// or -1 when it does not (Möller-Trumbore in double precision, not exact). Crossings within
@@ -136,6 +206,7 @@ class DirectField {
     std::vector<std::uint32_t> m_lights;
     std::vector<visdb::Luminaire> m_luminaires;
     Bvh m_bvh;
+    LightQuads m_quads;
 };
 
 }  // namespace abrad::radiosity

@@ -32,4 +32,11 @@ struct VisibleStats {
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
                            std::span<const Patch* const> occluders, VisibleStats* stats = nullptr);
 
+/// The same for a convex planar light polygon of 3 to 8 corners (counter-clockwise seen from
+/// its front; its plane from the first three): two light triangles that make a quadrilateral
+/// are seen past their occluders at once, each occluder tested once (LightQuads in direct.h).
+double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n,
+                           std::span<const glm::dvec3> light,
+                           std::span<const Patch* const> occluders, VisibleStats* stats = nullptr);
+
 }  // namespace abrad::radiosity
