@@ -824,16 +824,16 @@ void decimate(const Whole& w, std::span<const std::uint32_t> part, std::optional
     d.stale = decimater.module(bound).stale();
 }
 
+// Without exact_budget, how far the whole may pass the budget (a fraction of it) through the
+// parts' last collapses: each passes its own share by that collapse's error, which for a small
+// part can be a large share of its own (the furnished room's parts passed the whole by 2.6 %)
+constexpr double kPastBudget = 1e-3;
+
 // The parts of a decimation: whole surfaces (no collapse reaches from one surface into
 // another), dealt out largest first, each to the part with the fewest triangles so far (the
 // first of those), into at most kParts parts: about the same size, and the same parts
 // whatever the number of threads. Each part's triangles in the bake's order.
 constexpr std::size_t kParts = 16;
-
-// Without exact_budget, how far the whole may pass the budget (a fraction of it) through the
-// parts' last collapses: each passes its own share by that collapse's error, which for a small
-// part can be a large share of its own (the furnished room's parts passed the whole by 2.6 %)
-constexpr double kPastBudget = 1e-3;
 
 std::vector<std::vector<std::uint32_t>> parts_of(const visdb::BakeMesh& in) {
     std::unordered_map<std::uint32_t, std::size_t> count;
