@@ -84,10 +84,12 @@ struct ShootOptions {
     const Occluders* occluders_first = nullptr;
     /// A piece of a patch that holds none of a pixel's S × S samples gets a 2S × 2S mask of
     /// its own (the paper's rule for undersampled patches). False (with `sparse` or
-    /// `targets`): one S × S sample, the one holding its centroid, translucent by its area
-    /// over the sample's, so that it stops its form factor on average without the finer
-    /// masks (docs/algorithms.md#a-buffer). For form factors summed over many pixels (the
-    /// elements' rows, the gathers of probes and grids).
+    /// `targets`): a projected piece under a quarter of a sample's area is one partial sample,
+    /// the one holding its centroid, whose coverage is its area over the sample's (partial
+    /// samples in one sample add up, as the small faces of a mesh do, to at most the whole
+    /// sample); a larger piece is point sampled, the pixels where it holds no sample left out
+    /// (docs/algorithms.md#a-buffer). For form factors summed over many pixels (the elements'
+    /// rows, the gathers of probes and grids).
     bool fine_masks = true;
 };
 
@@ -115,7 +117,7 @@ struct ShootResult {
     /// Occlusion pairs sorted by (receiver, occluder), without duplicates.
     std::vector<OcclusionPair> occlusion;
     std::size_t fragments = 0;            ///< fragments stored over all pixels
-    std::size_t undersampled_pixels = 0;  ///< fragments that needed the finer mask
+    std::size_t undersampled_pixels = 0;  ///< fragments with a finer mask, or partial samples
     std::size_t raw_pairs = 0;            ///< occlusion pairs found before deduplication
     std::size_t hidden_pieces = 0;        ///< patch pieces culled as hidden behind closed pixels
     std::size_t hidden_nodes = 0;         ///< BVH nodes skipped whole (behind or hidden)
