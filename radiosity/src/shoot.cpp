@@ -570,11 +570,11 @@ struct Bundle {
 
 // PropFF, iteratively: the bundles partition the samples still carrying light; each keeps the
 // transmittance left after the translucent patches it went through. A partial piece (under a
-// sample's area, its opacity its coverage of the sample) takes its coverage of the light that
-// reached the run of partial pieces it belongs to, as far as any is left: such pieces lie side
-// by side within the sample (the small faces of a mesh), so their coverages add up to at most
-// the whole sample, where stacking them (1 − Π(1 − α)) would let through a third of the light a
-// mesh of tiny faces stops.
+// quarter of a sample's area, its opacity its coverage of the sample) takes its coverage of the
+// light that reached the run of partial pieces it belongs to, as far as any is left: such pieces
+// lie side by side within the sample (the small faces of a mesh), so their coverages add up to at
+// most the whole sample, where stacking them (1 − Π(1 − α)) would let through a third of the light
+// a mesh of tiny faces stops.
 template <typename M>
 void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
                std::span<const std::uint32_t> targets, std::span<const double> opacity,
