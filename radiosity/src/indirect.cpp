@@ -298,21 +298,6 @@ class ElementTargets final : public Targets {
     std::vector<std::uint32_t> m_whole, m_main;
 };
 
-// Area (in squared units of the coordinates) and centroid of a simple polygon.
-std::pair<double, glm::dvec2> area_centroid(const Polygon2& p) {
-    double a2 = 0.0;
-    glm::dvec2 c(0.0);
-    for (std::size_t k = 0; k < p.size(); ++k) {
-        const glm::dvec2& x = p[k];
-        const glm::dvec2& y = p[(k + 1) % p.size()];
-        const double w = x.x * y.y - y.x * x.y;
-        a2 += w;
-        c += w * (x + y);
-    }
-    if (a2 == 0.0) return {0.0, p.empty() ? glm::dvec2(0.0) : p[0]};
-    return {0.5 * std::abs(a2), c / (3.0 * a2)};
-}
-
 // The solver's state: elements and their pieces, the rows computed so far, and the Southwell
 // unknowns (H received, B shot, r unshot = ρH − B). One method per step of solve_indirect.
 class Solver {

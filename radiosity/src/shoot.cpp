@@ -356,17 +356,6 @@ void partial_sample(std::uint32_t patch, std::size_t pixel, int k, int c, double
         {static_cast<std::uint32_t>(pixel), id, patch, static_cast<float>(depth), kNoPatch, one});
 }
 
-// Area-weighted centroid of a convex polygon of twice-area `area2` (> 0, signed).
-glm::dvec2 area_centroid(const Poly2& p, double area2) {
-    glm::dvec2 c(0.0);
-    for (std::size_t i = 1; i + 1 < p.size(); ++i) {
-        const double a =
-            (p[i].x - p[0].x) * (p[i + 1].y - p[0].y) - (p[i + 1].x - p[0].x) * (p[i].y - p[0].y);
-        c += a * (p[0] + p[i] + p[i + 1]);
-    }
-    return c / (3.0 * area2);
-}
-
 // Without finer masks, pieces under this many samples' area are partial samples; larger ones
 // are point sampled. Much below one: such pieces of a mesh that land on one sample must not
 // add up past it (a mesh of faces of half a sample, two to a sample, lost a fifth of its form
@@ -399,11 +388,10 @@ void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const Depth
     // hold no sample of a pixel are left out (below): its samples stand for its area, as they
     // do across the shared edges of a mesh
     if (!fine_masks) {
-        const double area2 = signed_area2(p);
-        if (std::abs(area2) <= 1e-14) return;
-        const double samples = 0.5 * std::abs(area2) * S * S;
+        const auto [area, c] = area_centroid(p);
+        if (area <= 0.5e-14) return;
+        const double samples = area * S * S;
         if (samples < kPartialSamples) {
-            const glm::dvec2 c = area_centroid(p, area2);
             const int i = std::clamp(static_cast<int>(std::floor(c.x)), 0, W - 1);
             const int j = std::clamp(static_cast<int>(std::floor(c.y)), 0, H - 1);
             const std::size_t pixel = base + static_cast<std::size_t>(j * W + i);

@@ -118,11 +118,11 @@ std::vector<double> sparse_square_ff(const std::vector<Patch>& p, std::size_t sq
     return f;
 }
 
-// Without finer masks (ShootOptions::fine_masks, the elements' rows) a piece thinner than a
-// sample is one translucent fragment of its area over the sample's, in the pixel holding its
-// centroid. Triangles under a sample's size (1 cm squares at 3 m; a sample is 1.5 cm there at
-// R = 50, 8 × 8) and squares of two pixels, whose edges leave sampleless slivers, against
-// their closed forms.
+// Without finer masks (ShootOptions::fine_masks, the elements' rows) a piece under a quarter
+// of a sample's area is one partial sample of its area over the sample's, the sample holding
+// its centroid; larger pieces are point sampled. Triangles under a sample's size (1 cm
+// squares at 3 m; a sample is 1.5 cm there at R = 50, 8 × 8) and squares of two pixels, whose
+// edges leave sampleless slivers, against their closed forms.
 TEST(ABuffer, TranslucentSamplesKeepUndersampledPiecesFormFactors) {
     for (const double size : {0.01, 0.25}) {
         SCOPED_TRACE(size);

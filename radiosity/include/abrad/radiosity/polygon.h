@@ -9,11 +9,13 @@
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <cmath>
 #include <cstddef>
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <string>
+#include <utility>
 
 namespace abrad::radiosity {
 
@@ -111,6 +113,23 @@ double signed_area2(const Poly& p) {
         a += u.x * v.y - v.x * u.y;
     }
     return a;
+}
+
+/// Area (in squared units of the coordinates) and area-weighted centroid of a simple 2D
+/// polygon; a polygon of no area gives 0 and its first vertex.
+template <typename Poly>
+std::pair<double, glm::dvec2> area_centroid(const Poly& p) {
+    double a2 = 0.0;
+    glm::dvec2 c(0.0);
+    for (std::size_t k = 0, n = p.size(); k < n; ++k) {
+        const glm::dvec2& x = p[k];
+        const glm::dvec2& y = p[(k + 1) % n];
+        const double w = x.x * y.y - y.x * x.y;
+        a2 += w;
+        c += w * (x + y);
+    }
+    if (a2 == 0.0) return {0.0, p.size() == 0 ? glm::dvec2(0.0) : glm::dvec2(p[0])};
+    return {0.5 * std::abs(a2), c / (3.0 * a2)};
 }
 
 /// Area vector (normal times area) of a planar 3D polygon (Newell's method).
