@@ -187,6 +187,7 @@ class RegionShafts {
           m_sources(sources),
           m_reach(reach),
           m_tile(tile),
+          m_coplanar(kLengthTolerance * g.size),
           m_once(std::make_unique<std::once_flag[]>(regions.planar.size())),
           m_frames(regions.planar.size()),
           m_quads(g.patches, g.emittance, g.lights) {
@@ -195,7 +196,13 @@ class RegionShafts {
     }
 
     // The exact direct light at x (unit normal n) of region r: its light triangles (their
-    // occluder candidates from x's tile, or a query per point) and its luminaires.
+    // occluder candidates from x's tile, or a query per point) and its luminaires. Region r
+    // itself is no candidate, and an occluder whose plane passes within the length tolerance
+    // of x hides nothing from it: x lies on r's mean plane, which a region planar only to the
+    // bake's tolerance (bake_mesh.cpp: normals to cos 1 - 1e-9) leaves micrometres off its
+    // own triangles and off the edges it shares with its neighbours, and from just behind
+    // such a plane the whole light would be hidden (black patches on warped faces, black
+    // edges between the facets of a cylinder).
     visdb::Rgb irradiance(std::uint32_t r, const glm::dvec3& x, const glm::dvec3& n,
                           std::vector<const Patch*>& occ) const {
         const std::span<const std::uint32_t> lights = m_sources.lights[r];
@@ -213,10 +220,15 @@ class RegionShafts {
                 }
             };
             h = exact_irradiance_with(m_g.patches, m_g.emittance, lights, x, n, occ, m_reach,
-                                      candidates, &m_quads);
+                                      candidates, &m_quads, m_coplanar);
         } else {
-            h = exact_irradiance(m_g.patches, m_g.emittance, lights, m_bvh, x, n, occ, m_reach,
-                                 &m_quads);
+            const auto candidates = [&](std::size_t k, std::vector<const Patch*>& out) {
+                for_each_shadow_candidate(m_bvh, m_g.patches, lights[k], x, [&](std::uint32_t id) {
+                    if (m_regions.of_triangle[id] != r) out.push_back(&m_g.patches[id]);
+                });
+            };
+            h = exact_irradiance_with(m_g.patches, m_g.emittance, lights, x, n, occ, m_reach,
+                                      candidates, &m_quads, m_coplanar);
         }
         for (const std::uint32_t k : m_sources.luminaires[r])
             h += luminaires_irradiance({&m_g.luminaires[k], 1}, m_g.patches, m_bvh, x, n, m_reach);
@@ -256,7 +268,9 @@ class RegionShafts {
 
     void frame(std::uint32_t r) const {
         const PlanarRegion& region = m_regions.planar[r];
-        if (region.positions.size() < kMinVertices || m_sources.lights[r].empty()) return;
+        if (region.positions.size() + 2 * region.constraints.size() < kMinVertices ||
+            m_sources.lights[r].empty())
+            return;
         Frame f;
         f.n = region.normal;
         std::tie(f.u, f.v) = visdb::orthonormal_basis(f.n);
@@ -297,7 +311,9 @@ class RegionShafts {
                                           o + a1 * f.u + b1 * f.v,
                                           o + a0 * f.u + b1 * f.v};
             // (the light itself, in its own plane, hides nothing)
-            m_occluder_bvh.query(Hull(points), [&](std::uint32_t id) { tile.ids.push_back(id); });
+            m_occluder_bvh.query(Hull(points), [&](std::uint32_t id) {
+                if (m_regions.outlines.region[id] != r) tile.ids.push_back(id);
+            });
             if (tile.ids.size() > kMaxListed * lights.size()) {  // point by point
                 tile.start = {};
                 tile.ids = {};
@@ -316,7 +332,7 @@ class RegionShafts {
     const Bvh m_occluder_bvh;
     const Regions& m_regions;
     const RegionSources& m_sources;
-    double m_reach, m_tile;
+    double m_reach, m_tile, m_coplanar;
     std::unique_ptr<std::once_flag[]> m_once;
     mutable std::vector<Frame> m_frames;
     const LightQuads m_quads;  // the light triangles two by two as quadrilaterals

@@ -54,7 +54,7 @@ struct LightPlane {
 // occluder cannot block any of the light from x, or when its shadow misses the box [lo, hi]
 // of what is left of the light.
 bool occluder_shadow(const LightPlane& lp, const Patch& occ, const glm::dvec2& lo,
-                     const glm::dvec2& hi, Poly2& shadow) {
+                     const glm::dvec2& hi, double coplanar, Poly2& shadow) {
     const glm::dvec3 x = lp.x, n = lp.n, l0 = lp.l0, nl = lp.nl;
     const double sx = lp.sx;
     // Quick rejection: a blocking point lies strictly above x's tangent plane and strictly
@@ -98,7 +98,8 @@ bool occluder_shadow(const LightPlane& lp, const Patch& occ, const glm::dvec2& l
     const double on_len = glm::length(on);
     if (!(on_len > 0.0)) return false;  // degenerate: no area to block with
     const double size = std::sqrt(on_len);
-    if (std::abs(glm::dot(x - occ.p[0], on / on_len)) <= 1e-9 * size) return false;
+    if (std::abs(glm::dot(x - occ.p[0], on / on_len)) <= std::max(1e-9 * size, coplanar))
+        return false;
     if (!inside) {
         // Keep the part of the occluder strictly between the light plane and x:
         // r in (eps, 1 - eps)
@@ -180,13 +181,16 @@ void bound_all(const std::vector<Piece>& pieces, glm::dvec2& lo, glm::dvec2& hi)
 }  // namespace
 
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
-                           std::span<const Patch* const> occluders, VisibleStats* stats) {
-    return visible_form_factor(x, n, std::span<const glm::dvec3>(light.p), occluders, stats);
+                           std::span<const Patch* const> occluders, VisibleStats* stats,
+                           double coplanar) {
+    return visible_form_factor(x, n, std::span<const glm::dvec3>(light.p), occluders, stats,
+                               coplanar);
 }
 
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n,
                            std::span<const glm::dvec3> light,
-                           std::span<const Patch* const> occluders, VisibleStats* stats) {
+                           std::span<const Patch* const> occluders, VisibleStats* stats,
+                           double coplanar) {
     // Light plane: unit normal _nl_ (front, from its first three corners), signed height _sx_
     // of x above it
     if (light.size() < 3 || light.size() > 8) return 0.0;
@@ -209,7 +213,10 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n,
     const glm::dvec3 e1 = glm::normalize(light[1] - l0);
     const LightPlane lp{l0, nl, e1, glm::cross(nl, e1), x, n, sx, scale};
 
-    std::vector<Piece> pieces(1);
+    // Scratch kept by the thread: this runs hundreds of thousands of times in a bake
+    thread_local std::vector<Piece> pieces, cut;
+    pieces.resize(1);
+    pieces[0].poly.clear();
     for (const auto& q : lit) pieces[0].poly.push_back(lp.to2(q));
     pieces[0].weight = 1.0;
     bound(pieces[0]);
@@ -218,41 +225,47 @@ double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n,
     // top over a point under it) removes the light in one cut, and the small ones after it
     // mostly miss what is left, instead of each cutting the light into more pieces. The
     // visible part is the same whatever the order (to rounding).
-    struct Shadow {
-        Piece piece;  // the polygon and its box (the weight is unused)
+    // The order is sorted as small keys (area, place in `shadows`), not as the shadows
+    // themselves: a bake's evaluations meet some sixty shadows each.
+    struct Order {
         double area2;
-        std::uint32_t index;
+        std::uint32_t at;  // in `shadows`, made in the occluders' order
     };
-    thread_local std::vector<Shadow> shadows;
+    thread_local std::vector<Piece> shadows;        // the polygons and their boxes (weights unused)
+    thread_local std::vector<std::uint32_t> index;  // each shadow's occluder
+    thread_local std::vector<Order> order;
     shadows.clear();
+    index.clear();
+    order.clear();
     {
-        Shadow s{};
+        Piece s{};
         for (std::size_t oi = 0; oi < occluders.size(); ++oi) {
             if (stats) ++stats->occluders_tested;
-            if (!occluder_shadow(lp, *occluders[oi], pieces[0].lo, pieces[0].hi, s.piece.poly))
+            if (!occluder_shadow(lp, *occluders[oi], pieces[0].lo, pieces[0].hi, coplanar, s.poly))
                 continue;
-            bound(s.piece);
-            s.area2 = signed_area2(s.piece.poly);
-            s.index = static_cast<std::uint32_t>(oi);
+            bound(s);
+            order.push_back({signed_area2(s.poly), static_cast<std::uint32_t>(shadows.size())});
+            index.push_back(static_cast<std::uint32_t>(oi));
             shadows.push_back(s);
         }
     }
-    std::sort(shadows.begin(), shadows.end(), [](const Shadow& a, const Shadow& b) {
-        return a.area2 > b.area2 || (a.area2 == b.area2 && a.index < b.index);
+    // (the places follow the occluders' order, so ties go in that order)
+    std::sort(order.begin(), order.end(), [](const Order& a, const Order& b) {
+        return a.area2 > b.area2 || (a.area2 == b.area2 && a.at < b.at);
     });
 
-    std::vector<Piece> cut;
     glm::dvec2 lo = pieces[0].lo, hi = pieces[0].hi;  // box of what is left of the light
-    for (const Shadow& s : shadows) {
-        const glm::dvec2 slo = s.piece.lo, shi = s.piece.hi;
+    for (const Order& o : order) {
+        const Piece& shadow = shadows[o.at];
+        const glm::dvec2 slo = shadow.lo, shi = shadow.hi;
         if (shi.x <= lo.x || slo.x >= hi.x || shi.y <= lo.y || slo.y >= hi.y) continue;
-        const Patch* occ = occluders[s.index];
+        const Patch* occ = occluders[index[o.at]];
         const double transmit = 1.0 - std::clamp(occ->opacity, 0.0, 1.0);
-        const bool touched = subtract_shadow(pieces, s.piece, transmit, cut);
+        const bool touched = subtract_shadow(pieces, shadow, transmit, cut);
         if (touched || !cut.empty()) bound_all(pieces, lo, hi);
         if (touched && stats) {
             ++stats->occluders_projected;
-            if (stats->touched) stats->touched->push_back(s.index);
+            if (stats->touched) stats->touched->push_back(index[o.at]);
         }
         if (pieces.empty()) break;
     }

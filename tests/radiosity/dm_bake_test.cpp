@@ -14,6 +14,7 @@
 #include "abrad/radiosity/bake.h"
 #include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/field_error.h"
+#include "analytic.h"
 #include "mesh_checks.h"
 #include "scenes.h"
 
@@ -330,6 +331,31 @@ TEST(DmBake, APeakInsideALargeTriangleIsRefined) {
     std::printf("field error %.4f, %zu triangles\n", e, triangles);
     EXPECT_LT(e, 0.1);
     EXPECT_LT(triangles, 2000u);
+}
+
+// A face that is planar only to the bake's tolerance (its triangles' normals agree to
+// cos 1 - 1e-9, so they make one region) does not shadow itself. The mesher puts its new
+// vertices on the region's mean plane, a few micrometres under the raised triangle here; that
+// triangle, a candidate occluder of its own region's points, hid the whole light from every
+// one of them (black patches on slightly warped floors and walls of real models).
+TEST(DmBake, ANearlyPlanarFaceDoesNotShadowItself) {
+    visdb::Scene scene = abrad::testing::floor_and_light(1, false);
+    scene.surfaces[0].mesh.positions[1].z += 1e-5;  // the corner (1, -1) off the diagonal
+    BakeOptions o;
+    o.bounces = 0;
+    const visdb::Bake b = bake(scene, o);
+    const testing::AxisRect light{2, -1.0, {-0.5, -0.5, 1.5}, {0.5, 0.5, 1.5}};
+    std::size_t floor_vertices = 0;
+    for (std::size_t v = 0; v < b.mesh.positions.size(); ++v) {
+        const glm::dvec3 x = b.mesh.positions[v];
+        if (x.z > 1.0) continue;  // the light
+        ++floor_vertices;
+        // The closed form at the point's height (the warp moves it by 1e-5 of the light)
+        const double exact = 20.0 * testing::ff_axis_rect(x, {0, 0, 1}, light);
+        EXPECT_NEAR(b.mesh.irradiance[v].y, exact, 1e-4 * exact)
+            << "vertex " << v << " at " << x.x << ", " << x.y << ", " << x.z;
+    }
+    EXPECT_GT(floor_vertices, 20u);  // refined: points of the mean plane, not only the corners
 }
 
 TEST(DmBake, RejectsBadRefinementOptions) {

@@ -68,6 +68,29 @@ TEST(ExactShading, OpaqueAndTranslucentOccluderMatchClosedForm) {
     }
 }
 
+// A point at the foot of a ramp that rises from it toward the light (the floor point's
+// neighbour face), 20 nm behind the ramp's plane: as a discontinuity mesh vertex can lie on a
+// face planar only to the bake's tolerance. In exact arithmetic the ramp hides nothing; from
+// behind its plane it hides most of the light, unless the plane is taken to contain the point
+// within `coplanar`.
+TEST(ExactShading, AnOccluderWithinCoplanarOfThePointHidesNothing) {
+    const auto light = light_square();
+    std::vector<Patch> ramp;  // from the line x = 0.3 on the floor up to x = -0.2 at z = 0.5
+    add_quad(ramp, {0.3, -1, 0}, {0.3, 1, 0}, {-0.2, 1, 0.5}, {-0.2, -1, 0.5});
+    const glm::dvec3 behind = -glm::normalize(glm::dvec3(1, 0, 1));  // the ramp's back
+    const glm::dvec3 x = glm::dvec3(0.3, 0.1, 0) + 2e-8 * behind;
+    const double full = clipped(x, -9, 9, -9, 9);
+    std::vector<const Patch*> ptr;
+    for (const auto& o : ramp) ptr.push_back(&o);
+    double as_given = 0.0, within = 0.0;
+    for (const auto& l : light) {
+        as_given += visible_form_factor(x, {0, 0, 1}, l, ptr);
+        within += visible_form_factor(x, {0, 0, 1}, l, ptr, nullptr, 1e-6);
+    }
+    EXPECT_LT(as_given, 0.5 * full);  // the hazard
+    EXPECT_NEAR(within, full, 1e-9 * full);
+}
+
 // A translucent occluder entirely inside an opaque one's shadow changes nothing; two disjoint
 // translucent ones each take their share.
 TEST(ExactShading, StackedOccluders) {

@@ -68,13 +68,14 @@ class LightQuads {
 /// ascending. With `quads`, two lights of `lights` that make a quadrilateral and both give
 /// light here (x in front, within reach) are seen as the quadrilateral, past the union of
 /// their candidates (the pyramid of x and the quadrilateral is the union of the two shafts);
-/// the same light in exact arithmetic, each occluder once.
+/// the same light in exact arithmetic, each occluder once. `coplanar`: visible_form_factor's.
 template <typename Candidates>
 visdb::Rgb exact_irradiance_with(std::span<const Patch> patches,
                                  std::span<const visdb::Rgb> emittance,
                                  std::span<const std::uint32_t> lights, const glm::dvec3& x,
                                  const glm::dvec3& n, std::vector<const Patch*>& occ, double reach,
-                                 Candidates&& candidates, const LightQuads* quads = nullptr) {
+                                 Candidates&& candidates, const LightQuads* quads = nullptr,
+                                 double coplanar = 0.0) {
     // Whether light triangle l gives light at x: in front of its plane, within its reach
     // (cull.h)
     const auto gives = [&](std::uint32_t l) {
@@ -89,7 +90,8 @@ visdb::Rgb exact_irradiance_with(std::span<const Patch> patches,
     const auto alone = [&](std::size_t k) {
         occ.clear();
         candidates(k, occ);
-        return emittance[lights[k]] * visible_form_factor(x, n, patches[lights[k]], occ);
+        return emittance[lights[k]] *
+               visible_form_factor(x, n, patches[lights[k]], occ, nullptr, coplanar);
     };
     visdb::Rgb h(0.0);
     for (std::size_t k = 0; k < lights.size(); ++k) {
@@ -114,7 +116,7 @@ visdb::Rgb exact_irradiance_with(std::span<const Patch> patches,
             candidates(k2, occ);
             std::sort(occ.begin(), occ.end());
             occ.erase(std::unique(occ.begin(), occ.end()), occ.end());
-            h += emittance[l] * visible_form_factor(x, n, quad->corners, occ);
+            h += emittance[l] * visible_form_factor(x, n, quad->corners, occ, nullptr, coplanar);
         } else if (first) {
             h += alone(k);
         } else if (second) {

@@ -29,14 +29,23 @@ struct VisibleStats {
 /// Form factor from the differential area at `x` (unit normal `n`) to the part of the light
 /// triangle `light` (front = counter-clockwise) seen past `occluders`. A translucent occluder
 /// of opacity α lets 1 − α through. Returns 0 when `x` is not in front of the light.
+///
+/// An occluder whose plane contains x hides nothing from it (the rays that meet it lie in its
+/// plane): within 1e-9 of the occluder's size, or within `coplanar` metres when larger. The
+/// discontinuity mesh passes its length tolerance there: its vertices lie on their region's
+/// mean plane, which a face planar only to the bake's tolerance leaves micrometres off the
+/// edge it shares with a neighbour, and a point just behind a neighbour's plane at their
+/// common edge would see most of the light hidden by it.
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
-                           std::span<const Patch* const> occluders, VisibleStats* stats = nullptr);
+                           std::span<const Patch* const> occluders, VisibleStats* stats = nullptr,
+                           double coplanar = 0.0);
 
 /// The same for a convex planar light polygon of 3 to 8 corners (counter-clockwise seen from
 /// its front; its plane from the first three): two light triangles that make a quadrilateral
 /// are seen past their occluders at once, each occluder tested once (LightQuads in direct.h).
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n,
                            std::span<const glm::dvec3> light,
-                           std::span<const Patch* const> occluders, VisibleStats* stats = nullptr);
+                           std::span<const Patch* const> occluders, VisibleStats* stats = nullptr,
+                           double coplanar = 0.0);
 
 }  // namespace abrad::radiosity
