@@ -8,12 +8,14 @@
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <utility>
 
 #include "abrad/radiosity/exact.h"
 #include "abrad/radiosity/stage.h"
+#include "stages.h"
 
 namespace abrad::radiosity {
 
@@ -53,6 +55,13 @@ DirectField::DirectField(const visdb::Scene& scene)
             "the scene has no light sources (no material with emittance > 0, no luminaire)");
     }
     m_quads = LightQuads(m_patches, m_emittance, m_lights);
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+    for (const Patch& p : m_patches)
+        for (const glm::dvec3& q : p.p) {
+            lo = glm::min(lo, q);
+            hi = glm::max(hi, q);
+        }
+    if (!m_patches.empty()) m_coplanar = kLengthTolerance * glm::length(hi - lo);
 }
 
 double segment_crossing(const Patch& p, const glm::dvec3& a, const glm::dvec3& b) {
@@ -203,14 +212,15 @@ visdb::Rgb luminaires_irradiance(std::span<const visdb::Luminaire> luminaires,
 visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
                             std::span<const std::uint32_t> lights, const Bvh& bvh,
                             const glm::dvec3& x, const glm::dvec3& n,
-                            std::vector<const Patch*>& occ, double reach, const LightQuads* quads) {
+                            std::vector<const Patch*>& occ, double reach, const LightQuads* quads,
+                            double coplanar) {
     return exact_irradiance_with(
         patches, emittance, lights, x, n, occ, reach,
         [&](std::size_t k, std::vector<const Patch*>& out) {
             for_each_shadow_candidate(bvh, patches, lights[k], x,
                                       [&](std::uint32_t id) { out.push_back(&patches[id]); });
         },
-        quads);
+        quads, coplanar);
 }
 
 LightQuads::LightQuads(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
@@ -265,8 +275,8 @@ LightQuads::LightQuads(std::span<const Patch> patches, std::span<const visdb::Rg
 
 visdb::Rgb DirectField::irradiance(const glm::dvec3& x, const glm::dvec3& n) const {
     std::vector<const Patch*> occluders;
-    visdb::Rgb h =
-        exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders, 0.0, &m_quads);
+    visdb::Rgb h = exact_irradiance(m_patches, m_emittance, m_lights, m_bvh, x, n, occluders, 0.0,
+                                    &m_quads, m_coplanar);
     return h + luminaires_irradiance(m_luminaires, m_patches, m_bvh, x, n);
 }
 

@@ -132,11 +132,12 @@ visdb::Rgb exact_irradiance_with(std::span<const Patch> patches,
 /// whose plane x is not in front of give nothing; with `reach` > 0 metres, lights whose
 /// centroid is farther than `reach` along some axis are skipped (cull.h). `occ` is scratch.
 /// With `quads` (made over `lights` or more), pairs of lights seen as quadrilaterals.
+/// `coplanar`: visible_form_factor's.
 visdb::Rgb exact_irradiance(std::span<const Patch> patches, std::span<const visdb::Rgb> emittance,
                             std::span<const std::uint32_t> lights, const Bvh& bvh,
                             const glm::dvec3& x, const glm::dvec3& n,
                             std::vector<const Patch*>& occ, double reach = 0.0,
-                            const LightQuads* quads = nullptr);
+                            const LightQuads* quads = nullptr, double coplanar = 0.0);
 
 /// Where the open segment (a, b) crosses the triangle `p`: the fraction t in (0, 1) along it,
 /// or -1 when it does not (Möller-Trumbore in double precision, not exact). Crossings within
@@ -197,7 +198,11 @@ class DirectField {
     explicit DirectField(const visdb::Scene& scene);
 
     /// Irradiance H (W/m², RGB; lux in photometric scenes) at `x` on a surface with unit
-    /// normal `n` (its front): the light triangles' and the luminaires' (point sources).
+    /// normal `n` (its front): the light triangles' and the luminaires' (point sources). A
+    /// triangle whose plane passes within the bake's length tolerance of x (1e-7 of the
+    /// scene's bounding diagonal) hides nothing from it, as in the discontinuity mesh: a point
+    /// on a surface sees what the points just in front of it see, whatever faces lie in that
+    /// surface's plane to the tolerance (coplanar overlaps, a region's other triangles).
     visdb::Rgb irradiance(const glm::dvec3& x, const glm::dvec3& n) const;
 
     std::size_t light_triangles() const { return m_lights.size(); }
@@ -209,6 +214,7 @@ class DirectField {
     std::vector<visdb::Luminaire> m_luminaires;
     Bvh m_bvh;
     LightQuads m_quads;
+    double m_coplanar = 0.0;  // metres
 };
 
 }  // namespace abrad::radiosity
