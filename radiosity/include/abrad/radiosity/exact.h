@@ -32,10 +32,10 @@ struct VisibleStats {
 ///
 /// An occluder whose plane contains x hides nothing from it (the rays that meet it lie in its
 /// plane): within 1e-9 of the occluder's size, or within `coplanar` metres when larger. The
-/// discontinuity mesh passes its length tolerance there: its vertices lie on their region's
-/// mean plane, which a face planar only to the bake's tolerance leaves micrometres off the
-/// edge it shares with a neighbour, and a point just behind a neighbour's plane at their
-/// common edge would see most of the light hidden by it.
+/// discontinuity mesh and DirectField pass the length tolerance there: the mesh's vertices lie
+/// on their region's mean plane, which a face planar only to the bake's tolerance leaves
+/// micrometres off the edge it shares with a neighbour, models hold faces that overlap to a
+/// few micrometres, and a point just behind such a plane would see most of the light hidden.
 double visible_form_factor(const glm::dvec3& x, const glm::dvec3& n, const Patch& light,
                            std::span<const Patch* const> occluders, VisibleStats* stats = nullptr,
                            double coplanar = 0.0);
