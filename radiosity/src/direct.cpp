@@ -8,7 +8,6 @@
 #include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
-#include <limits>
 #include <map>
 #include <numbers>
 #include <utility>
@@ -55,13 +54,10 @@ DirectField::DirectField(const visdb::Scene& scene)
             "the scene has no light sources (no material with emittance > 0, no luminaire)");
     }
     m_quads = LightQuads(m_patches, m_emittance, m_lights);
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+    Box bounds;
     for (const Patch& p : m_patches)
-        for (const glm::dvec3& q : p.p) {
-            lo = glm::min(lo, q);
-            hi = glm::max(hi, q);
-        }
-    if (!m_patches.empty()) m_coplanar = kLengthTolerance * glm::length(hi - lo);
+        for (const glm::dvec3& q : p.p) bounds.grow(q);
+    if (!m_patches.empty()) m_coplanar = kLengthTolerance * glm::length(bounds.hi - bounds.lo);
 }
 
 double segment_crossing(const Patch& p, const glm::dvec3& a, const glm::dvec3& b) {
