@@ -84,7 +84,7 @@ struct BakeOptions {
     bool dm = true;
     LightModel lights = LightModel::Vertices;  ///< how lights cast shadow edges
     double dm_min_angle = 0.0;  ///< Ruppert/Chew minimum angle, degrees (0 = none, max 20.7)
-    int refine_rounds = 4;      ///< illumination-driven refinement rounds (0 = shadow edges only)
+    int refine_rounds = 5;      ///< illumination-driven refinement rounds (0 = shadow edges only)
     /// Split an edge when its midpoint's exact irradiance departs from the linear
     /// interpolation by more than this, relative, and by more than half this of the
     /// receivers' mean irradiance; and a triangle at least 8 shortest refined edges long,
