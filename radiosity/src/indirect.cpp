@@ -519,12 +519,10 @@ class Solver {
         for (std::size_t t = 0; t < m_in.patches.size(); ++t)
             if (fallback[m_in.region[t]] == kNoPatch)
                 fallback[m_in.region[t]] = whole[t] != kNoPatch ? whole[t] : main[t];
+        // Each outline triangle's cells (its box in the region's grid): the elements' outline
+        // triangles, which element_polygons clips to the cells, and its own target
+        m_element_triangle.clear();
         for (std::size_t k = 0; k < o.patches.size(); ++k) {
-            if (const std::uint32_t t = o.source[k]; t != kNoPatch) {
-                vis_whole[k] = whole[t];
-                vis_main[k] = main[t];
-                continue;
-            }
             const std::uint32_t r = o.region[k];
             const IndirectSolution::Grid& g = m_sol.grids[r];
             glm::ivec2 lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
@@ -535,31 +533,23 @@ class Solver {
                 lo = glm::min(lo, c);
                 hi = glm::max(hi, c);
             }
+            for (int j = lo.y; j <= hi.y; ++j)
+                for (int i = lo.x; i <= hi.x; ++i)
+                    if (const std::uint32_t e = m_sol.element_at(r, i, j);
+                        e != IndirectSolution::kNoElement)
+                        m_element_triangle.push_back({e, static_cast<std::uint32_t>(k)});
+            if (const std::uint32_t t = o.source[k]; t != kNoPatch) {
+                vis_whole[k] = whole[t];
+                vis_main[k] = main[t];
+                continue;
+            }
             const std::uint32_t at = m_sol.element_at(r, centroid(o.patches[k]));
             vis_whole[k] = lo == hi ? m_sol.element_at(r, lo.x, lo.y) : kNoPatch;
             vis_main[k] = at != IndirectSolution::kNoElement ? at : fallback[r];
         }
+        std::sort(m_element_triangle.begin(), m_element_triangle.end());
         m_vis = o.patches;
         m_sol.visibility_triangles = m_vis.size();
-        // The elements' outline triangles (element_polygons clips them to the cells)
-        m_element_triangle.clear();
-        for (std::size_t k = 0; k < o.patches.size(); ++k) {
-            const std::uint32_t r = o.region[k];
-            const IndirectSolution::Grid& g = m_sol.grids[r];
-            glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
-            for (const glm::dvec3& x : o.patches[k].p) {
-                const glm::dvec2 q{glm::dot(x - g.origin, g.u) / size,
-                                   glm::dot(x - g.origin, g.v) / size};
-                lo = glm::min(lo, q);
-                hi = glm::max(hi, q);
-            }
-            for (int j = int(std::floor(lo.y)); j <= int(std::floor(hi.y)); ++j)
-                for (int i = int(std::floor(lo.x)); i <= int(std::floor(hi.x)); ++i)
-                    if (const std::uint32_t e = m_sol.element_at(r, i, j);
-                        e != IndirectSolution::kNoElement)
-                        m_element_triangle.push_back({e, static_cast<std::uint32_t>(k)});
-        }
-        std::sort(m_element_triangle.begin(), m_element_triangle.end());
         m_targets = std::make_unique<ElementTargets>(m_sol, o.region, std::move(vis_whole),
                                                      std::move(vis_main));
     }
@@ -920,7 +910,8 @@ class Solver {
                 double shooter_area = 0.0;
                 for (const std::uint32_t e : members_of(todo[k]))
                     shooter_area += m_sol.elements[e].area;
-                const std::vector<double> ratio = near_ratios(todo[k], frame, shot.hits);
+                const std::vector<double> ratio =
+                    near_ratios(todo[k], frame, shooter_area, shot.hits);
                 fold_row(shot.hits, m_sol.elements, frame, shooter_area, &m_small, m_region_normal,
                          row, ratio);
             },
@@ -1011,17 +1002,14 @@ class Solver {
     // above it. For each non-coplanar receiver within kNearShooter shooter sides of the
     // point, the ratio of the form factor from the shooter's area (sampled) to the one from
     // its point, both unoccluded and exact (point_polygon_form_factor), per hit; empty when
-    // no receiver is near. Occlusion stays the hemicube's.
-    std::vector<double> near_ratios(std::uint32_t s, const ShooterFrame& frame,
+    // no receiver is near. Occlusion stays the hemicube's. `shooter_area`: its members' area.
+    std::vector<double> near_ratios(std::uint32_t s, const ShooterFrame& frame, double shooter_area,
                                     std::span<const PatchFormFactor> hits) const {
         const auto members = members_of(s);
         const double size = m_options.element_size;
         const std::uint32_t region = m_sol.elements[members[0]].region;
-        double shooter_area = 0.0;
-        for (const std::uint32_t e : members) {
+        for (const std::uint32_t e : members)
             if (m_sol.elements[e].region != region) return {};  // a cube of small faces
-            shooter_area += m_sol.elements[e].area;
-        }
         if (shooter_area < kSmallElement * size * size) return {};
         const double side = members.size() > 1 ? m_options.shooter_cells * size : size;
         const glm::dvec3 ns = m_region_normal[region];
