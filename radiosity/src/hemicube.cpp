@@ -43,21 +43,6 @@ glm::dvec3 to_face(int face, const glm::dvec3& l) {
     }
 }
 
-glm::dvec3 from_face(int face, const glm::dvec3& f) {
-    switch (face) {
-        case kTop:
-            return {f.x, f.y, f.z};
-        case kPosU:
-            return {f.z, f.x, f.y};
-        case kNegU:
-            return {-f.z, -f.x, f.y};
-        case kPosV:
-            return {-f.x, f.z, f.y};
-        default:
-            return {f.x, -f.z, f.y};  // kNegV
-    }
-}
-
 Hemicube::Hemicube(int resolution) : m_resolution(resolution) {
     if (resolution < 2 || resolution % 2 != 0)
         throw std::invalid_argument("hemicube resolution must be even and >= 2, got " +

@@ -289,8 +289,9 @@ void validate(const IndirectOptions& o) {
 namespace {
 
 // The elements as the hemicube's targets: a triangle within one cell gives its whole form
-// factor to that cell's element; a larger one gives each fragment's to the element of the cell
-// its pixel sees (or, off the grid's elements, to the element holding most of the triangle).
+// factor to that cell's element; a larger one gives each fragment's to the elements of the
+// cells its visible samples see (or, off the grid's elements, to the element holding most of
+// the triangle).
 class ElementTargets final : public Targets {
   public:
     ElementTargets(const IndirectSolution& sol, std::span<const std::uint32_t> region,
@@ -299,8 +300,13 @@ class ElementTargets final : public Targets {
 
     std::uint32_t whole(std::uint32_t t) const override { return m_whole[t]; }
 
-    std::uint32_t at(std::uint32_t t, const glm::dvec3& x) const override {
-        const std::uint32_t e = m_sol.element_at(m_region[t], x);
+    Grid grid(std::uint32_t t) const override {
+        const IndirectSolution::Grid& g = m_sol.grids[m_region[t]];
+        return {g.origin, g.u, g.v, m_sol.element_size};
+    }
+
+    std::uint32_t cell(std::uint32_t t, int i, int j) const override {
+        const std::uint32_t e = m_sol.element_at(m_region[t], i, j);
         return e != IndirectSolution::kNoElement ? e : m_main[t];
     }
 
@@ -505,7 +511,7 @@ class Solver {
     // The hemicubes' patches: each planar region triangulated from its outline alone
     // (outline_triangulation) where that takes fewer triangles, so that a finely meshed wall
     // costs a row what its outline costs. A pixel of such a triangle goes to the element of the
-    // cell it sees (ElementTargets::at), as one of a large triangle always did. Other regions
+    // cell it sees (ElementTargets::cell), as one of a large triangle always did. Other regions
     // keep their triangles, and their targets (`whole`, `main`: per triangle).
     void make_visibility(const std::vector<std::uint32_t>& whole,
                          const std::vector<std::uint32_t>& main) {

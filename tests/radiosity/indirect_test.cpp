@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -264,7 +265,9 @@ TEST(Interreflection, HemicubesDrawSurfacesFromTheirOutlines) {
     EXPECT_EQ(sb.visibility_triangles, sa.visibility_triangles);
     EXPECT_EQ(sa.elements, sb.elements);
     EXPECT_NEAR(sa.energy_absorbed_w, sb.energy_absorbed_w, 1e-3 * 10.0);
-    EXPECT_NEAR(sa.ambient, sb.ambient, 1e-3 * sa.ambient);
+    // The ambient term is what is left unshot when the solution stops: one shot more or less
+    // (the two rooms stop at 993 and 994 shots) moves it by 0.4 %
+    EXPECT_NEAR(sa.ambient, sb.ambient, 0.01 * sa.ambient);
     EXPECT_LT(sb.energy_escaped_w, 1e-4 * 10.0);
     expect_energy_balance(b);
 }
@@ -426,13 +429,15 @@ TEST(Interreflection, BlackRoomLightAndObstructionAgainstTheClosedForm) {
     }
 }
 
-// A shooter's hemicube stands for its area by one point, and a receiver near it sees the
-// area under another form factor than the point's: the wall cell beside a floor cell 5 %
-// more, the one above it 21 % less. A floor (ρ = 0.5) under a light and one black wall
-// rising from its edge, one bounce: each wall element must receive what the floor elements'
+// A floor (ρ = 0.5) under a light and one black wall rising from its edge, one bounce: per wall
+// element (all 8 × 6 of 0.5 m), its indirect irradiance over what the floor elements'
 // radiosity sends it through the exact area-to-area form factors (each floor element's area
-// sampled, the point-to-polygon closed form to the wall element), at the wall's foot too.
-TEST(Interreflection, ElementsBesideAnEdgeReceiveThroughTheAreasFormFactor) {
+// sampled, the point-to-polygon closed form to the wall element), less 1.
+struct WallElementError {
+    glm::dvec3 centroid;
+    double error;
+};
+std::vector<WallElementError> wall_beside_a_lit_floor(int row_resolution) {
     const double rho = 0.5;
     std::vector<Patch> patches;
     std::vector<visdb::Rgb> reflectance, emittance;
@@ -457,8 +462,8 @@ TEST(Interreflection, ElementsBesideAnEdgeReceiveThroughTheAreasFormFactor) {
                            .region = region,
                            .region_normal = normal};
     IndirectOptions o;
-    o.bounces = 1;           // the floor's reflection, once: no ambient term
-    o.row_resolution = 256;  // fine: what is left is the near field, not the pixels
+    o.bounces = 1;  // the floor's reflection, once: no ambient term
+    o.row_resolution = row_resolution;
     const IndirectSolution sol = solve_indirect(in, o);
 
     // An element's rectangle: its cell within its region's rectangle (the grids are axis
@@ -472,8 +477,7 @@ TEST(Interreflection, ElementsBesideAnEdgeReceiveThroughTheAreasFormFactor) {
             hi = el.region == 0 ? glm::dvec3(2, 2, 0) : glm::dvec3(2, -2, 3);
         return std::pair{glm::clamp(glm::min(a, b), lo, hi), glm::clamp(glm::max(a, b), lo, hi)};
     };
-    int checked = 0;
-    double worst = 0.0;
+    std::vector<WallElementError> out;
     for (const IndirectSolution::Element& wall : sol.elements) {
         if (wall.region != 1) continue;
         const auto [wl, wh] = rect(wall);
@@ -495,15 +499,46 @@ TEST(Interreflection, ElementsBesideAnEdgeReceiveThroughTheAreasFormFactor) {
             f /= m * m;
             expected += rho * floor.direct.y * f * floor.area / wall.area;
         }
-        const double got = wall.indirect.y, error = got / expected - 1.0;
-        ++checked;
-        if (std::abs(error) > std::abs(worst)) worst = error;
-        // (the point's form factors give the foot's row 5-6 % too little)
-        EXPECT_NEAR(got, expected, 0.03 * expected)
-            << "wall element at x " << wall.centroid.x << ", z " << wall.centroid.z;
+        out.push_back({wall.centroid, wall.indirect.y / expected - 1.0});
     }
-    std::printf("wall elements: %d, worst %+.2f %%\n", checked, 100.0 * worst);
-    EXPECT_EQ(checked, 8 * 6);
+    return out;
+}
+
+// A shooter's hemicube stands for its area by one point, and a receiver near it sees the
+// area under another form factor than the point's: the wall cell beside a floor cell 5 %
+// more, the one above it 21 % less. With rows of R = 256 (so that pixels are not the
+// question) every wall element must receive within 3 % of the exact transfer, at the wall's
+// foot too (the point's form factors gave the foot's row 4.9-6.0 % too little).
+TEST(Interreflection, ElementsBesideAnEdgeReceiveThroughTheAreasFormFactor) {
+    const std::vector<WallElementError> errors = wall_beside_a_lit_floor(256);
+    ASSERT_EQ(errors.size(), 8u * 6u);
+    double worst = 0.0;
+    for (const WallElementError& e : errors) {
+        if (std::abs(e.error) > std::abs(worst)) worst = e.error;
+        EXPECT_LT(std::abs(e.error), 0.03)
+            << "wall element at x " << e.centroid.x << ", z " << e.centroid.z;
+    }
+    std::printf("R = 256: worst wall element %+.2f %%\n", 100.0 * worst);
+}
+
+// The rows' default R = 32: a hemicube pixel is a few cells' worth of a far wall's height,
+// and giving each pixel to the cell its centre sees did so alike for every shooter in the
+// floor's plane: bands of ±10 % along the wall's rows of cells (RMS 6.2 %, worst 11 %). Each
+// pixel's share is split between the cells two of its visible samples see (one from each
+// half), drawn per shooter: over the wall's elements RMS 2.3 %, worst 5.0 %.
+TEST(Interreflection, RowPixelsDoNotBandTheCellsOfAWall) {
+    const std::vector<WallElementError> errors =
+        wall_beside_a_lit_floor(BakeOptions{}.element_resolution);
+    ASSERT_EQ(errors.size(), 8u * 6u);
+    double sum2 = 0.0, worst = 0.0;
+    for (const WallElementError& e : errors) {
+        sum2 += e.error * e.error;
+        worst = std::max(worst, std::abs(e.error));
+    }
+    const double rms = std::sqrt(sum2 / double(errors.size()));
+    std::printf("R = 32: RMS %.2f %%, worst %.2f %%\n", 100.0 * rms, 100.0 * worst);
+    EXPECT_LT(rms, 0.03);
+    EXPECT_LT(worst, 0.08);
 }
 
 // Issue 19: an element is what its triangles' pieces cover, so a needle face (its own region,

@@ -41,7 +41,20 @@ inline constexpr int kFaceCount = 5;
 /// Face coordinates (sx, sy, d) of a local point for `face`.
 glm::dvec3 to_face(int face, const glm::dvec3& local);
 /// Local coordinates of face coordinates (the inverse of to_face).
-glm::dvec3 from_face(int face, const glm::dvec3& f);
+inline glm::dvec3 from_face(int face, const glm::dvec3& f) {
+    switch (face) {
+        case kTop:
+            return {f.x, f.y, f.z};
+        case kPosU:
+            return {f.z, f.x, f.y};
+        case kNegU:
+            return {-f.z, -f.x, f.y};
+        case kPosV:
+            return {-f.x, f.z, f.y};
+        default:
+            return {f.x, -f.z, f.y};  // kNegV
+    }
+}
 
 /// A hemicube of resolution R (R×R top face, four R×R/2 half faces; R even, >= 2).
 class Hemicube {

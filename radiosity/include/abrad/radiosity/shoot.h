@@ -29,11 +29,19 @@ enum class Visibility {
 /// whole triangles and its form factors still go to the cells they cover.
 class Targets {
   public:
+    /// The cells of a square grid in a patch's plane: cell (i, j) holds the points x with
+    /// floor((x − origin)·u / size) = i and floor((x − origin)·v / size) = j.
+    struct Grid {
+        glm::dvec3 origin{0.0}, u{1.0, 0.0, 0.0}, v{0.0, 1.0, 0.0};
+        double size = 1.0;
+    };
     virtual ~Targets() = default;
     /// The one target of `patch`, or kNoPatch when it spans several.
     virtual std::uint32_t whole(std::uint32_t patch) const = 0;
-    /// The target of `patch` holding `x`, a point on it (world coordinates).
-    virtual std::uint32_t at(std::uint32_t patch, const glm::dvec3& x) const = 0;
+    /// The grid whose cells hold the targets of `patch` (one spanning several).
+    virtual Grid grid(std::uint32_t patch) const = 0;
+    /// The target of `patch` in cell (i, j) of its grid.
+    virtual std::uint32_t cell(std::uint32_t patch, int i, int j) const = 0;
 };
 
 /// Patches a culling hemicube rasterizes before its walk (large_occluders: walls and slabs):
