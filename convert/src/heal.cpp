@@ -29,6 +29,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "abrad/hash.h"
 #include "polygon_cdt.h"
 #include "raw_model.h"
 
@@ -70,16 +71,6 @@ ImportError error_at(const RawModel& raw, std::size_t place, const std::string& 
     return {raw.file, 0, where.empty() ? message : where + ": " + message};
 }
 
-std::uint64_t mix(std::uint64_t h) {
-    // splitmix64 finaliser
-    h ^= h >> 30;
-    h *= 0xbf58476d1ce4e5b9ULL;
-    h ^= h >> 27;
-    h *= 0x94d049bb133111ebULL;
-    h ^= h >> 31;
-    return h;
-}
-
 /// Exact position key for welding: bit patterns with -0 folded onto +0.
 struct PositionKey {
     std::array<std::uint64_t, 3> bits;
@@ -93,22 +84,25 @@ PositionKey position_key(const glm::dvec3& p) {
 
 struct PositionKeyHash {
     std::size_t operator()(const PositionKey& k) const {
-        return static_cast<std::size_t>(mix(k.bits[0] ^ mix(k.bits[1] ^ mix(k.bits[2]))));
+        return static_cast<std::size_t>(
+            mix_bits(k.bits[0] ^ mix_bits(k.bits[1] ^ mix_bits(k.bits[2]))));
     }
 };
 
 struct CellHash {
     std::size_t operator()(const std::array<std::int64_t, 3>& c) const {
         return static_cast<std::size_t>(
-            mix(static_cast<std::uint64_t>(c[0]) ^
-                mix(static_cast<std::uint64_t>(c[1]) ^ mix(static_cast<std::uint64_t>(c[2])))));
+            mix_bits(static_cast<std::uint64_t>(c[0]) ^
+                     mix_bits(static_cast<std::uint64_t>(c[1]) ^
+                              mix_bits(static_cast<std::uint64_t>(c[2])))));
     }
 };
 
 struct TriangleKeyHash {
     std::size_t operator()(const std::array<std::uint32_t, 3>& k) const {
-        return static_cast<std::size_t>(mix((std::uint64_t{k[0]} << 32 | k[1]) ^
-                                            mix(std::uint64_t{k[2]} + 0x9e3779b97f4a7c15ULL)));
+        return static_cast<std::size_t>(
+            mix_bits((std::uint64_t{k[0]} << 32 | k[1]) ^
+                     mix_bits(std::uint64_t{k[2]} + 0x9e3779b97f4a7c15ULL)));
     }
 };
 

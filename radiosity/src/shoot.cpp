@@ -22,6 +22,7 @@
 #include <utility>
 
 #include "abrad/check.h"
+#include "abrad/hash.h"
 #include "abrad/radiosity/polygon.h"
 
 namespace abrad::radiosity {
@@ -30,16 +31,6 @@ namespace {
 
 // ---------------------------------------------------------------------------------------
 // Coverage masks: S×S samples, row k in bits [k·S, k·S + S) of a run of 64-bit words.
-
-// The splitmix64 finaliser: a well-mixed 64-bit hash of a 64-bit key
-constexpr std::uint64_t mix_bits(std::uint64_t h) {
-    h ^= h >> 30;
-    h *= 0xbf58476d1ce4e5b9ULL;
-    h ^= h >> 27;
-    h *= 0x94d049bb133111ebULL;
-    h ^= h >> 31;
-    return h;
-}
 
 template <int S>
 struct Mask {
