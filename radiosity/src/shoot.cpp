@@ -941,6 +941,164 @@ void scan_convert(const ShooterFrame& frame, std::span<const Patch> patches, con
     result.fragments = buffer.fragments.size();
 }
 
+// ff[local] += share, ff grown to hold it (with Targets, cells get local ids as they are met)
+inline void add_share(std::vector<double>& ff, std::uint32_t local, double share) {
+    if (local >= ff.size()) ff.resize(local + 1, 0.0);
+    ff[local] += share;
+}
+
+// With Targets, a fragment of a patch spanning several targets gives what its samples `in`
+// bring it to the cells they see on the patch (a sample's ray met with the patch's plane).
+// When the pixel's corners lie in one cell, that cell takes it all (one_cell). Otherwise it
+// goes out in kStrata equal parts, one per consecutive run of `in` (row order), each to the
+// cell of one sample of the run drawn by a hash of the shooting point, the pixel and the
+// bundle: the same on every thread and rank, and over the shooters of a scene each cell gets
+// the pixel in proportion to what it shows of it. (The pixel's centre gave a whole pixel to
+// one cell alike for every shooter in a plane: bands of ±10 % along a wall's rows of cells
+// with R = 32 rows. One sample left noise of ±10 %, two ±5 %, four ±4 % at 7 % more CPU for
+// the FZK-Haus's bake where two cost 1 %.)
+//
+// The list is sorted by each fragment's depth at its samples' centroid, so a sample it gives a
+// fragment may lie behind a later fragment's plane: at a wall's foot, the floor's samples
+// beyond the wall, in a cell the shooter cannot see (the floor behind a partition). A drawn
+// sample that a later opaque fragment covering it hides is drawn again within its run (kDraws
+// in all), then left to the fragment's own point at the pixel's centre. The later fragments
+// are there to ask: with Targets a pixel closes at its fragments' far depths (Fragment::far),
+// so a fragment is culled only behind the whole of the pixel's cover.
+template <int S>
+class CellShares {
+  public:
+    static constexpr int kStrata = 2, kDraws = 4;
+
+    CellShares(const ShooterFrame& frame, FragmentBuffer<S>& buffer, const Hemicube& hc,
+               const Targets& targets, std::vector<double>& ff)
+        : m_frame(frame), m_buffer(buffer), m_hc(hc), m_targets(targets), m_ff(ff) {
+        for (int k = 0; k < 3; ++k)
+            m_seed = mix_bits(m_seed ^ std::bit_cast<std::uint64_t>(frame.origin[k]));
+    }
+
+    // The pixel the next fragments lie in (pixels come in increasing order)
+    void at_pixel(std::size_t px) {
+        while (m_face + 1 < kFaceCount && px >= m_hc.face_offset(m_face + 1)) ++m_face;
+        const auto W = static_cast<std::size_t>(m_hc.width(m_face));
+        m_row = (px - m_hc.face_offset(m_face)) / W;
+        m_column = (px - m_hc.face_offset(m_face)) % W;
+    }
+
+    // Gives `share`, what bundle `bundle` brings entry f of the pixel's sorted `list` through
+    // its samples `in`, to the cells they see (`masks`: the list's masks)
+    template <typename M>
+    void give(std::span<const std::uint32_t> list, std::span<const M> masks, std::size_t f,
+              const M& in, std::size_t bundle, double share) {
+        const Fragment<S>& frag = m_buffer.fragments[list[f]];
+        const std::uint32_t id = m_buffer.patch_of[frag.patch];
+        Spread& spread = m_buffer.spread_of[frag.patch];
+        if (!spread.grid) spread.find_grid(m_targets, id, m_frame);
+        if (const std::optional<glm::ivec2> cell = one_cell(frag))
+            return give_cell(id, *cell, share);
+        std::uint64_t h = mix_bits(m_seed ^ frag.pixel);
+        if (bundle > 0) h = mix_bits(h + bundle);
+        const int count = in.count(), strata = std::min(count, kStrata);
+        const double part = share / strata;
+        for (int stratum = 0; stratum < strata; ++stratum) {
+            const int lo = stratum * count / strata, n = (stratum + 1) * count / strata - lo;
+            bool seen = false;
+            for (int draw = 0; draw < kDraws && !seen; ++draw, h = mix_bits(h)) {
+                const auto pick =
+                    static_cast<int>(((h >> 32) * static_cast<std::uint64_t>(n)) >> 32);
+                const int sample = in.nth(lo + pick);
+                const int k = sample / M::kSide, c = sample % M::kSide;
+                const glm::dvec3 r = ray((c + 0.5) / M::kSide, (k + 0.5) / M::kSide);
+                const double t = meet(frag, r);
+                seen = t > 0.0 && !hidden(list, masks, f, k, c, r, t);
+                if (seen) give_cell(id, cell_of(spread, r, t), part);
+            }
+            if (!seen) {
+                const glm::dvec3 r = ray(0.5, 0.5);
+                const double t = meet(frag, r);
+                give_cell(id, cell_of(spread, r, t > 0.0 ? t : double(frag.depth)), part);
+            }
+        }
+    }
+
+  private:
+    // The ray through (a, b) of the pixel, in the shooter's frame
+    glm::dvec3 ray(double a, double b) const {
+        return from_face(m_face, {m_hc.proj_a(double(m_column) + a),
+                                  m_hc.proj_b(m_face, double(m_row) + b), 1.0});
+    }
+
+    // Where a ray meets a fragment's plane: t, the point being t·r (0 when it does not)
+    double meet(const Fragment<S>& frag, const glm::dvec3& r) const {
+        const glm::dvec4& plane = m_buffer.spread_of[frag.patch].plane;
+        const double along = glm::dot(glm::dvec3(plane), r);
+        return along != 0.0 ? plane.w / along : 0.0;
+    }
+
+    // The cell of the patch's grid holding the point t·r
+    static glm::ivec2 cell_of(const Spread& spread, const glm::dvec3& r, double t) {
+        const glm::dvec3 l = t * r;
+        return glm::ivec2(
+            static_cast<int>(std::floor(glm::dot(glm::dvec3(spread.i), l) + spread.i.w)),
+            static_cast<int>(std::floor(glm::dot(glm::dvec3(spread.j), l) + spread.j.w)));
+    }
+
+    // The pixel's corners on a fragment's plane all in one cell: that cell, its samples' too
+    std::optional<glm::ivec2> one_cell(const Fragment<S>& frag) const {
+        glm::ivec2 first(0);
+        for (int corner = 0; corner < 4; ++corner) {
+            const glm::dvec3 r = ray(corner & 1, corner >> 1);
+            const double t = meet(frag, r);
+            if (t <= 0.0) return std::nullopt;
+            const glm::ivec2 cell = cell_of(m_buffer.spread_of[frag.patch], r, t);
+            if (corner == 0)
+                first = cell;
+            else if (cell != first)
+                return std::nullopt;
+        }
+        return first;
+    }
+
+    // True when a later opaque fragment covering sample (k, c) meets its ray r nearer than t
+    // (sorted by depth: those deeper than entry f's deepest point over the pixel lie behind
+    // it, but for a steep one crossing it there)
+    template <typename M>
+    bool hidden(std::span<const std::uint32_t> list, std::span<const M> masks, std::size_t f, int k,
+                int c, const glm::dvec3& r, double t) const {
+        const float far = m_buffer.fragments[list[f]].far;
+        for (std::size_t g = f + 1; g < list.size(); ++g) {
+            const Fragment<S>& other = m_buffer.fragments[list[g]];
+            if (other.depth > far) break;
+            if (!masks[g].test(k, c) || m_buffer.opacity[other.patch] < 1.0) continue;
+            const double u = meet(other, r);
+            if (u > 0.0 && u < t) return true;
+        }
+        return false;
+    }
+
+    // A cell's share, its target's local id remembered (a fragment's samples mostly see one)
+    void give_cell(std::uint32_t id, glm::ivec2 cell, double share) {
+        if (id != m_last_patch || cell != m_last_cell) {
+            m_last_patch = id;
+            m_last_cell = cell;
+            m_last_local =
+                m_buffer.local_targets.id(m_targets.cell(id, cell.x, cell.y), m_buffer.target_of);
+        }
+        add_share(m_ff, m_last_local, share);
+    }
+
+    const ShooterFrame& m_frame;
+    FragmentBuffer<S>& m_buffer;
+    const Hemicube& m_hc;
+    const Targets& m_targets;
+    std::vector<double>& m_ff;
+    std::uint64_t m_seed = 0;
+    int m_face = 0;
+    std::size_t m_row = 0, m_column = 0;
+    std::uint32_t m_last_patch = kNoPatch, m_last_local = kNoPatch;
+    glm::ivec2 m_last_cell{0};
+};
+
 // Per pixel, the depth-sorted fragment list: form factors propagated through it (PropFF) into
 // `ff` (by local id) and, when asked, its occlusion pairs (MergeOcclusionList), as (receiver
 // << 32 | occluder) keys.
@@ -970,135 +1128,12 @@ void resolve_pixels(const ShooterFrame& frame, FragmentBuffer<S>& buffer, const 
     std::vector<std::uint32_t> ids;
     std::vector<Bundle<Mask<S>>> bundles;
     std::vector<Bundle<Mask<2 * S>>> fine_bundles;
-    // With Targets, a fragment of a patch spanning several targets gives what its samples `in`
-    // bring it to the cells they see on the patch (a sample's ray met with the patch's plane).
-    // When the pixel's corners lie in one cell, that cell takes it all (one_cell). Otherwise it
-    // goes out in kStrata equal parts, one per consecutive run of `in` (row order), each to the
-    // cell of one sample of the run drawn by a hash of the shooting point, the pixel and the
-    // bundle: the same on every thread and rank, and over the shooters of a scene each cell
-    // gets the pixel in proportion to what it shows of it. (The pixel's centre gave a whole
-    // pixel to one cell alike for every shooter in a plane: bands of ±10 % along a wall's rows
-    // of cells with R = 32 rows. One sample left noise of ±10 %, two ±5 %, four ±4 % at 7 %
-    // more CPU for the FZK-Haus's bake where two cost 1 %.)
-    //
-    // The list is sorted by each fragment's depth at its samples' centroid, so a sample it gives
-    // a fragment may lie behind a later fragment's plane: at a wall's foot, the floor's samples
-    // beyond the wall, in a cell the shooter cannot see (the floor behind a partition). A drawn
-    // sample that a later opaque fragment covering it hides is drawn again within its run
-    // (kDraws in all), then left to the fragment's own point at the pixel's centre. The later
-    // fragments are there to ask: with Targets a pixel closes at its fragments' far depths
-    // (Fragment::far), so a fragment is culled only behind the whole of the pixel's cover.
-    constexpr int kStrata = 2, kDraws = 4;
-    std::uint64_t seed = 0;
-    for (int k = 0; k < 3; ++k)
-        seed = mix_bits(seed ^ std::bit_cast<std::uint64_t>(frame.origin[k]));
-    std::size_t px = 0, row = 0, column = 0;
-    int face = 0;
-    // The ray through (a, b) of the pixel, in the shooter's frame
-    const auto ray = [&](double a, double b) {
-        return from_face(face,
-                         {hc.proj_a(double(column) + a), hc.proj_b(face, double(row) + b), 1.0});
-    };
-    // Where a ray meets a fragment's plane: t, the point being t·r (0 when it does not)
-    const auto meet = [&](const Fragment<S>& frag, const glm::dvec3& r) {
-        const glm::dvec4& plane = buffer.spread_of[frag.patch].plane;
-        const double along = glm::dot(glm::dvec3(plane), r);
-        return along != 0.0 ? plane.w / along : 0.0;
-    };
-    const auto give = [&](std::uint32_t local, double share) {
-        if (local >= ff.size()) ff.resize(local + 1, 0.0);
-        ff[local] += share;
-    };
-    // The cell of the patch's grid holding the point t·r
-    const auto cell_of = [](const Spread& spread, const glm::dvec3& r, double t) {
-        const glm::dvec3 l = t * r;
-        return glm::ivec2(
-            static_cast<int>(std::floor(glm::dot(glm::dvec3(spread.i), l) + spread.i.w)),
-            static_cast<int>(std::floor(glm::dot(glm::dvec3(spread.j), l) + spread.j.w)));
-    };
-    // A cell's target by local id, the last one remembered (a fragment's samples mostly see one)
-    std::uint32_t last_patch = kNoPatch, last_local = kNoPatch;
-    glm::ivec2 last_cell(0);
-    const auto give_cell = [&](std::uint32_t id, glm::ivec2 cell, double share) {
-        if (id != last_patch || cell != last_cell) {
-            last_patch = id;
-            last_cell = cell;
-            last_local = buffer.local_targets.id(options.targets->cell(id, cell.x, cell.y),
-                                                 buffer.target_of);
-        }
-        give(last_local, share);
-    };
-    // The pixel's corners on a fragment's plane all in one cell: that cell, its samples' too
-    const auto one_cell = [&](const Fragment<S>& frag) -> std::optional<glm::ivec2> {
-        glm::ivec2 first(0);
-        for (int corner = 0; corner < 4; ++corner) {
-            const glm::dvec3 r = ray(corner & 1, corner >> 1);
-            const double t = meet(frag, r);
-            if (t <= 0.0) return std::nullopt;
-            const glm::ivec2 cell = cell_of(buffer.spread_of[frag.patch], r, t);
-            if (corner == 0)
-                first = cell;
-            else if (cell != first)
-                return std::nullopt;
-        }
-        return first;
-    };
-    const auto give_visible = [&]<typename M>(std::span<const std::uint32_t> list,
-                                              std::span<const M> list_masks, std::size_t f,
-                                              const M& in, std::size_t bundle, double share) {
-        const Fragment<S>& frag = buffer.fragments[list[f]];
-        if (frag.target != kNoPatch) return give(frag.target, share);
-        const std::uint32_t id = buffer.patch_of[frag.patch];
-        Spread& spread = buffer.spread_of[frag.patch];
-        if (!spread.grid) spread.find_grid(*options.targets, id, frame);
-        if (const std::optional<glm::ivec2> cell = one_cell(frag))
-            return give_cell(id, *cell, share);
-        std::uint64_t h = mix_bits(seed ^ frag.pixel);
-        if (bundle > 0) h = mix_bits(h + bundle);
-        const int count = in.count(), strata = std::min(count, kStrata);
-        const double part = share / strata;
-        for (int stratum = 0; stratum < strata; ++stratum) {
-            const int lo = stratum * count / strata, n = (stratum + 1) * count / strata - lo;
-            bool seen = false;
-            for (int draw = 0; draw < kDraws && !seen; ++draw, h = mix_bits(h)) {
-                const auto pick =
-                    static_cast<int>(((h >> 32) * static_cast<std::uint64_t>(n)) >> 32);
-                const int sample = in.nth(lo + pick);
-                const int k = sample / M::kSide, c = sample % M::kSide;
-                const glm::dvec3 r = ray((c + 0.5) / M::kSide, (k + 0.5) / M::kSide);
-                const double t = meet(frag, r);
-                if (t <= 0.0) continue;
-                bool hidden = false;
-                // (sorted by depth: those deeper than this fragment's deepest point over the
-                // pixel lie behind it, but for a steep one crossing it there)
-                for (std::size_t g = f + 1; g < list.size() && !hidden; ++g) {
-                    const Fragment<S>& other = buffer.fragments[list[g]];
-                    if (other.depth > frag.far) break;
-                    if (!list_masks[g].test(k, c) || buffer.opacity[other.patch] < 1.0) continue;
-                    const double u = meet(other, r);
-                    hidden = u > 0.0 && u < t;
-                }
-                if (!hidden) {
-                    give_cell(id, cell_of(spread, r, t), part);
-                    seen = true;
-                }
-            }
-            if (!seen) {
-                const glm::dvec3 r = ray(0.5, 0.5);
-                const double t = meet(frag, r);
-                give_cell(id, cell_of(spread, r, t > 0.0 ? t : double(frag.depth)), part);
-            }
-        }
-    };
-    for (px = 0; px < npix; ++px) {
+    std::optional<CellShares<S>> cells;
+    if (options.targets) cells.emplace(frame, buffer, hc, *options.targets, ff);
+    for (std::size_t px = 0; px < npix; ++px) {
         auto first = order.begin() + start[px], last = order.begin() + start[px + 1];
         if (first == last) continue;
-        if (options.targets) {
-            while (face + 1 < kFaceCount && px >= hc.face_offset(face + 1)) ++face;
-            const auto W = static_cast<std::size_t>(hc.width(face));
-            row = (px - hc.face_offset(face)) / W;
-            column = (px - hc.face_offset(face)) % W;
-        }
+        if (cells) cells->at_pixel(px);
         // Ties in depth go by patch index, whatever the order the patches were visited in
         std::sort(first, last, [&](std::uint32_t a, std::uint32_t b) {
             const auto &fa = buffer.fragments[a], &fb = buffer.fragments[b];
@@ -1115,12 +1150,16 @@ void resolve_pixels(const ShooterFrame& frame, FragmentBuffer<S>& buffer, const 
             fine = fine || f.fine != kNoPatch;
         }
         const std::span<const std::uint32_t> list(&*first, &*first + (last - first));
+        // Each fragment's share to its target, or with Targets to the cells it shows
         const auto target = [&]<typename M>(std::size_t f, const M& in, std::size_t bundle,
                                             double share) {
-            if constexpr (std::is_same_v<M, Mask<S>>)
-                give_visible(list, std::span<const M>(masks), f, in, bundle, share);
+            const std::uint32_t t = buffer.fragments[list[f]].target;
+            if (t != kNoPatch)
+                add_share(ff, t, share);
+            else if constexpr (std::is_same_v<M, Mask<S>>)
+                cells->give(list, std::span<const M>(masks), f, in, bundle, share);
             else
-                give_visible(list, std::span<const M>(fine_masks), f, in, bundle, share);
+                cells->give(list, std::span<const M>(fine_masks), f, in, bundle, share);
         };
         const double delta = hc.delta(px);
         if (!fine) {
