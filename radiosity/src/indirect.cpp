@@ -510,9 +510,10 @@ class Solver {
 
     // The hemicubes' patches: each planar region triangulated from its outline alone
     // (outline_triangulation) where that takes fewer triangles, so that a finely meshed wall
-    // costs a row what its outline costs. A pixel of such a triangle goes to the element of the
-    // cell it sees (ElementTargets::cell), as one of a large triangle always did. Other regions
-    // keep their triangles, and their targets (`whole`, `main`: per triangle).
+    // costs a row what its outline costs. A pixel of such a triangle goes to the elements of the
+    // cells its visible samples see (ElementTargets::cell), as one of a large triangle always
+    // did. Other regions keep their triangles, and their targets (`whole`, `main`: per
+    // triangle).
     void make_visibility(const std::vector<std::uint32_t>& whole,
                          const std::vector<std::uint32_t>& main) {
         if (!m_in.outlines)

@@ -635,7 +635,7 @@ struct Bundle {
 // Each fragment's share goes out through give(f, in, b, share): list entry f's, for its
 // samples `in` that bundle b brings to it.
 template <typename M, typename Give>
-void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches, Give&& add,
+void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches, Give&& give,
                std::span<const double> opacity, std::span<const char> partial, double delta,
                bool translucency, std::vector<Bundle<M>>& bundles) {
     bundles.clear();
@@ -652,12 +652,12 @@ void propagate(std::span<const M> masks, std::span<const std::uint32_t> patches,
             bundles[b].mask = bundles[b].mask.and_not(masks[f]);
             if (part) {
                 const double kept = std::min(alpha * bundles[b].run, t);
-                add(f, in, b, kept * per_sample * in.count());
+                give(f, in, b, kept * per_sample * in.count());
                 if (kept < t) bundles.push_back({in, t - kept, bundles[b].run});
                 continue;
             }
             // Retained by this patch: opacity · ΔF_inside (Eqn 5)
-            add(f, in, b, alpha * t * per_sample * in.count());
+            give(f, in, b, alpha * t * per_sample * in.count());
             if (alpha < 1.0)
                 bundles.push_back({in, t * (1.0 - alpha), t * (1.0 - alpha)});  // Eqn 6
         }
