@@ -192,15 +192,17 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
     // Shoot the lights: patch irradiance, exact vertex irradiance or shadow segments
     LightShots shots = shoot_lights(geometry, regions, bvh, hemicube, options, &stats, progress);
 
-    // Discontinuity mesh: the receivers re-meshed along the shadow segments and refined
-    std::optional<DiscontinuityMesh> dm;
-    if (options.dm)
-        dm = mesh_discontinuities(geometry, bvh, regions, shots, options, &stats, progress);
-
     // Interreflection on the imported mesh's elements (over the ranks, each its share of the
     // hemicubes: every rank ends with the same solution)
     std::optional<IndirectSolution> indirect;
     if (options.bounces != 0) indirect = interreflect(geometry, regions, options, &stats, progress);
+
+    // Discontinuity mesh: the receivers re-meshed along the shadow segments and refined where
+    // the whole field (the indirect part too) needs vertices
+    std::optional<DiscontinuityMesh> dm;
+    if (options.dm)
+        dm = mesh_discontinuities(geometry, bvh, regions, shots, indirect ? &*indirect : nullptr,
+                                  options, &stats, progress);
 
     // The other ranks have given their share (cluster.h): rank 0 finishes the bake
     if (options.cluster && options.cluster->size() > 1) {

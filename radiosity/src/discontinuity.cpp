@@ -435,18 +435,31 @@ std::size_t evaluate_vertices(const Regions& regions, const RegionShafts& shafts
     return all.size();
 }
 
-// The points that split region r's edges whose midpoint's exact irradiance departs from the
+// The field the refinement tests at one region's vertices: the exact direct irradiance, and
+// with interreflection the direct plus the indirect part interpolated from the elements.
+struct RegionField {
+    const visdb::Rgb* direct = nullptr;
+    const visdb::Rgb* total = nullptr;  // null without interreflection
+    const IndirectSolution* indirect = nullptr;
+    // Edges (and triangles' longest edges) at least this long test the whole field; shorter
+    // ones the direct part alone: the indirect part is bilinear between elements' centres, and
+    // below an element's size splitting only traces its kinks
+    double whole_from = 0.0;
+};
+
+// The points that split region r's edges whose midpoint's irradiance departs from the
 // linear interpolation of their ends, and its large triangles whose centroid's does; the points
-// evaluated here go to `evaluated`.
+// whose exact direct irradiance is evaluated here go to `evaluated`.
 void refine_region(const Regions& regions, const RegionShafts& shafts, const MeshedRegion& m,
-                   std::uint32_t r, const visdb::Rgb* h, double floor, double min_edge,
+                   std::uint32_t r, const RegionField& f, double floor, double min_edge,
                    const BakeOptions& options, const IrradianceCache& cache,
                    std::vector<glm::dvec3>& split,
                    std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
     std::vector<const Patch*> occ;
     const glm::dvec3 rn = regions.planar[r].normal;
-    // Splits at x when its exact value departs from `linear` by more than the tolerance
-    const auto test = [&](const glm::dvec3& x, const visdb::Rgb& linear) {
+    // Splits at x when its value departs from `linear` by more than the tolerance; `whole`:
+    // the value and `linear` are of the whole field, else of the direct part
+    const auto test = [&](const glm::dvec3& x, const visdb::Rgb& linear, bool whole) {
         const PointKey key = key_of(r, x);
         const auto hit = cache.find(key);
         visdb::Rgb exact;
@@ -456,6 +469,7 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
             exact = shafts.irradiance(r, x, rn, occ);
             evaluated.emplace_back(key, exact);
         }
+        if (whole) exact += f.indirect->at(r, x);
         const double diff = visdb::channel_mean(glm::abs(exact - linear));
         if (diff > floor && diff > options.refine_tolerance * std::max(visdb::channel_mean(exact),
                                                                        visdb::channel_mean(linear)))
@@ -469,11 +483,14 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
     edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
     for (const auto& [a, b] : edges) {
         const glm::dvec3 pa = m.positions[a], pb = m.positions[b];
-        if (glm::length(pb - pa) < min_edge) continue;
+        const double length = glm::length(pb - pa);
+        if (length < min_edge) continue;
         // Canonical midpoint: the same bits from either region sharing the edge
         const glm::dvec3 mid =
             lexicographically_less(pa, pb) ? pa + 0.5 * (pb - pa) : pb + 0.5 * (pa - pb);
-        test(mid, 0.5 * (h[a] + h[b]));
+        const bool whole = f.total && length >= f.whole_from;
+        const visdb::Rgb* h = whole ? f.total : f.direct;
+        test(mid, 0.5 * (h[a] + h[b]), whole);
     }
     for (const glm::u32vec3& t : m.triangles) {
         std::array<glm::dvec3, 3> p = {m.positions[t.x], m.positions[t.y], m.positions[t.z]};
@@ -483,7 +500,9 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
         // The corners in one order, so that the centroid's bits do not depend on the
         // mesher's numbering
         std::sort(p.begin(), p.end(), lexicographically_less);
-        test((p[0] + p[1] + p[2]) / 3.0, (h[t.x] + h[t.y] + h[t.z]) / 3.0);
+        const bool whole = f.total && longest >= f.whole_from;
+        const visdb::Rgb* h = whole ? f.total : f.direct;
+        test((p[0] + p[1] + p[2]) / 3.0, (h[t.x] + h[t.y] + h[t.z]) / 3.0, whole);
     }
 }
 
@@ -491,11 +510,20 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
 // returns how many were added.
 std::size_t refine(Regions& regions, const RegionShafts& shafts,
                    const std::vector<MeshedRegion>& meshed, const DiscontinuityMesh& current,
-                   double min_edge, const BakeOptions& options, const std::vector<char>& mine,
-                   Cluster& cluster, IrradianceCache& cache, std::uint64_t& evaluations,
-                   ParallelProgress& progress) {
+                   const IndirectSolution* indirect, double min_edge, const BakeOptions& options,
+                   const std::vector<char>& mine, Cluster& cluster, IrradianceCache& cache,
+                   std::uint64_t& evaluations, ParallelProgress& progress) {
+    // The field at the vertices: exact direct, plus the indirect part where there is one
+    std::vector<visdb::Rgb> field;
+    if (indirect) {
+        field = current.irradiance;
+        tbb::parallel_for(std::size_t{0}, field.size(), [&](std::size_t v) {
+            field[v] += indirect->at(current.vertex_region[v], current.mesh.positions[v]);
+        });
+    }
+    const std::vector<visdb::Rgb>& h = indirect ? field : current.irradiance;
     double h_max = 0.0;
-    for (const visdb::Rgb& x : current.irradiance) h_max = std::max(h_max, visdb::channel_mean(x));
+    for (const visdb::Rgb& x : h) h_max = std::max(h_max, visdb::channel_mean(x));
     // The field an edge's split improves: a departure under kFloorOfMean times the tolerance
     // of the receivers' mean irradiance (area-weighted) is left, so that dim places (the
     // inside of a shelf, a corner behind furniture) are not refined as finely as lit ones for a
@@ -507,9 +535,8 @@ std::size_t refine(Regions& regions, const RegionShafts& shafts,
         const glm::dvec3* p = current.mesh.positions.data();
         const double a = visdb::triangle_area(p[t.x], p[t.y], p[t.z]);
         sum_ah += a *
-                  (visdb::channel_mean(current.irradiance[t.x]) +
-                   visdb::channel_mean(current.irradiance[t.y]) +
-                   visdb::channel_mean(current.irradiance[t.z])) /
+                  (visdb::channel_mean(h[t.x]) + visdb::channel_mean(h[t.y]) +
+                   visdb::channel_mean(h[t.z])) /
                   3.0;
         sum_a += a;
     }
@@ -527,9 +554,12 @@ std::size_t refine(Regions& regions, const RegionShafts& shafts,
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
         progress.add(meshed[r].triangles.size());
         if (regions.emitter[r] || !mine[r]) return;
-        refine_region(regions, shafts, meshed[r], static_cast<std::uint32_t>(r),
-                      current.irradiance.data() + region_start[r], floor, min_edge, options, cache,
-                      split[r], evaluated[r]);
+        const RegionField f{.direct = current.irradiance.data() + region_start[r],
+                            .total = indirect ? field.data() + region_start[r] : nullptr,
+                            .indirect = indirect,
+                            .whole_from = indirect ? indirect->element_size : 0.0};
+        refine_region(regions, shafts, meshed[r], static_cast<std::uint32_t>(r), f, floor, min_edge,
+                      options, cache, split[r], evaluated[r]);
     });
     exchange_refinement(cluster, split, evaluated);
     for (const auto& list : evaluated)
@@ -549,8 +579,9 @@ std::size_t refine(Regions& regions, const RegionShafts& shafts,
 }  // namespace
 
 DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
-                                       LightShots& shots, const BakeOptions& options,
-                                       visdb::BakeStats* stats, const ProgressFn& progress) {
+                                       LightShots& shots, const IndirectSolution* indirect,
+                                       const BakeOptions& options, visdb::BakeStats* stats,
+                                       const ProgressFn& progress) {
     std::vector<std::vector<ShadowSegment>>& segments = shots.segments;
     // Lengths relative to the model's size: a model in millimetres or kilometres meshes as the
     // same model in metres would
@@ -606,8 +637,8 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
         if (round >= options.refine_rounds) break;
         ParallelProgress triangles(progress, "mesh: refinement, triangles" + of_rounds,
                                    out.mesh.triangles.size());
-        const std::size_t added = refine(regions, shafts, meshed, out, min_edge, options, mine,
-                                         cluster, cache, st.exact_evaluations, triangles);
+        const std::size_t added = refine(regions, shafts, meshed, out, indirect, min_edge, options,
+                                         mine, cluster, cache, st.exact_evaluations, triangles);
         st.refine_points += added;
         if (added == 0) break;
     }

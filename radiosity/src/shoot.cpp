@@ -424,6 +424,11 @@ void partial_sample(std::uint32_t patch, std::size_t pixel, int k, int c, double
 // factor at 1; at a quarter a mesh of faces under it keeps 0.975 of it and more)
 constexpr double kPartialSamples = 0.25;
 
+// A triangle whose corners all lie within this fraction of the farthest one's distance from
+// the shooting point of the shooter's plane lies in that plane (project_patch): a millionth,
+// above the planar regions' tolerance (1e-7 of the model's size) over a triangle's reach
+constexpr double kInPlane = 1e-6;
+
 template <int S>
 void rasterize_abuffer(const Hemicube& hc, int face, const Poly2& p, const DepthPlane& plane,
                        std::uint32_t patch, FragmentBuffer<S>& out, std::size_t& undersampled,
@@ -573,6 +578,15 @@ template <typename Emit>
 void project_patch(const Hemicube& hc, const glm::dvec3 local[3], Emit&& emit) {
     // Entirely behind the shooter's plane: seen by no face
     if (local[0].z <= 0.0 && local[1].z <= 0.0 && local[2].z <= 0.0) return;
+    // In the shooter's own plane: its own surface, or a coplanar neighbour, subtends no solid
+    // angle. A hair in front of the point (the planar regions' tolerance, rounding) it would
+    // cover the whole hemicube as a ceiling right above the point: a wall element's row then
+    // gave its whole power to its own back
+    const double reach =
+        std::max({glm::length(local[0]), glm::length(local[1]), glm::length(local[2])});
+    if (std::max({std::abs(local[0].z), std::abs(local[1].z), std::abs(local[2].z)}) <=
+        kInPlane * reach)
+        return;
     // Points closer than this to the shooting point are dropped (near plane), metres
     constexpr double kNear = 1e-9;
     for (int f = 0; f < kFaceCount; ++f) {

@@ -5,9 +5,10 @@
 //   build_bake_mesh     bake_mesh.cpp       the scene's triangles, split by surface and normal
 //   shoot_lights        shoot_lights.cpp    one hemicube per light: patch irradiance, exact
 //                                           vertex irradiance (no DM), shadow segments (DM)
-//   mesh_discontinuities discontinuity.cpp  CDT per planar region with the shadow segments,
-//                                           refined where the exact irradiance is not linear
 //   interreflect        interreflect.cpp    progressive refinement on elements (indirect.h)
+//   mesh_discontinuities discontinuity.cpp  CDT per planar region with the shadow segments,
+//                                           refined where the field (exact direct plus
+//                                           interpolated indirect) is not linear
 //   shade_patches       shade.cpp           the paper's patch shading on a new mesh
 //   shade_vertices      shade.cpp           B = E + ρH at every output vertex
 
@@ -130,9 +131,14 @@ LightShots shoot_lights(const BakeGeometry& g, const Regions& regions, const Bvh
 /// Fills stats->dm (all but the shadow edge counters, which shoot_lights filled).
 /// The exact irradiance on a region asks only the lights that reach some triangle of it
 /// (LightShots::lights_of_triangle), so a vertex's cost follows the lights that see its room.
+/// With `indirect` (the interreflection, solved first) the refinement tests the whole field,
+/// exact direct plus the interpolated indirect part, so that surfaces lit only by reflected
+/// light (ceilings) get the vertices their field needs; DiscontinuityMesh::irradiance stays
+/// the direct part.
 DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Regions& regions,
-                                       LightShots& shots, const BakeOptions& options,
-                                       visdb::BakeStats* stats, const ProgressFn& progress);
+                                       LightShots& shots, const IndirectSolution* indirect,
+                                       const BakeOptions& options, visdb::BakeStats* stats,
+                                       const ProgressFn& progress);
 
 /// Interreflection on `g`'s triangles clustered per planar region (options.bounces != 0);
 /// fills stats->indirect but the per-vertex mean (shade_vertices adds it).

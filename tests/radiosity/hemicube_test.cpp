@@ -66,6 +66,27 @@ TEST(Hemicube, PerpendicularRectangleStraddlingFacesCountedOnce) {
     EXPECT_NEAR(shoot_ff(p, Visibility::ZBuffer, 50), exact, 0.03 * exact);
 }
 
+// The shooter's own surface, a hair in front of its point (the planar regions' tolerance:
+// a wall's triangles and its elements' centroids agree to a micrometre), lies in its plane and
+// subtends nothing. Taken as a ceiling right above the point, it covered the whole hemicube:
+// in the FZK-Haus 184 wall elements' rows gave their whole power to their own backs.
+TEST(Hemicube, TheShootersOwnPlaneAHairInFrontSeesNothing) {
+    for (const double hair : {1e-12, 1e-9, 1e-7, 0.0, -1e-9}) {
+        std::vector<Patch> p;
+        add_quad(p, {-2, -2, hair}, {2, -2, hair}, {2, 2, hair}, {-2, 2, hair});  // own floor
+        // A room above it: the ceiling 1 m up, 1 × 1 m around the point's vertical
+        add_quad(p, {-0.5, -0.5, 1}, {-0.5, 0.5, 1}, {0.5, 0.5, 1}, {0.5, -0.5, 1});
+        const Hemicube hc(50);
+        ShootOptions o;
+        o.method = Visibility::ABuffer;
+        const ShootResult res = shoot(ShooterFrame::at({0.1, 0.2, 0}, {0, 0, 1}), p, hc, o);
+        EXPECT_EQ(res.form_factor[0] + res.form_factor[1], 0.0) << "hair " << hair;
+        const double exact = testing::ff_parallel_rect(-0.6, 0.4, -0.7, 0.3, 1.0);
+        EXPECT_NEAR(res.form_factor[2] + res.form_factor[3], exact, 0.003 * exact)
+            << "hair " << hair;
+    }
+}
+
 // A closed box around the shooter receives everything: the form factors sum to 1 whatever
 // the faces each triangle spans (no sample counted twice or lost).
 TEST(Hemicube, EnclosureReceivesEverythingOnce) {
