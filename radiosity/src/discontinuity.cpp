@@ -43,6 +43,12 @@ constexpr double kFloorOfMean = 0.5;
 // (docs/algorithms.md#illumination-driven-refinement).
 constexpr double kCentroidEdges = 8.0;
 
+// With interreflection, edges at least this many elements long test the whole field (direct
+// plus indirect), shorter ones the direct part (docs/algorithms.md,
+// illumination-driven refinement: one element's length gave the FZK-Haus 165,478 triangles,
+// two 154,515, the living room's work plane 0.8 % apart)
+constexpr double kWholeFieldElements = 2.0;
+
 // Exact position (and region) as a hash key.
 struct PointKey {
     std::uint32_t region;
@@ -443,7 +449,8 @@ struct RegionField {
     const IndirectSolution* indirect = nullptr;
     // Edges (and triangles' longest edges) at least this long test the whole field; shorter
     // ones the direct part alone: the indirect part is bilinear between elements' centres, and
-    // below an element's size splitting only traces its kinks
+    // splitting a shorter edge mostly traces its kinks (two elements: docs/algorithms.md,
+    // illumination-driven refinement)
     double whole_from = 0.0;
 };
 
@@ -554,10 +561,11 @@ std::size_t refine(Regions& regions, const RegionShafts& shafts,
     tbb::parallel_for(std::size_t{0}, meshed.size(), [&](std::size_t r) {
         progress.add(meshed[r].triangles.size());
         if (regions.emitter[r] || !mine[r]) return;
-        const RegionField f{.direct = current.irradiance.data() + region_start[r],
-                            .total = indirect ? field.data() + region_start[r] : nullptr,
-                            .indirect = indirect,
-                            .whole_from = indirect ? indirect->element_size : 0.0};
+        const RegionField f{
+            .direct = current.irradiance.data() + region_start[r],
+            .total = indirect ? field.data() + region_start[r] : nullptr,
+            .indirect = indirect,
+            .whole_from = indirect ? kWholeFieldElements * indirect->element_size : 0.0};
         refine_region(regions, shafts, meshed[r], static_cast<std::uint32_t>(r), f, floor, min_edge,
                       options, cache, split[r], evaluated[r]);
     });
