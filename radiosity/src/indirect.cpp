@@ -104,6 +104,12 @@ constexpr double kSmallElement = 1e-3;
 constexpr double kNearShooter = 2.0;
 constexpr double kNearRatioBound = 2.0;
 
+// A row with more than this fraction of its form factor on elements' backs stands at a point
+// inside something, and is made again from other points of its shooter's pieces, at most
+// kEnclosedTries of them (make_row)
+constexpr double kEnclosedBack = 0.25;
+constexpr std::size_t kEnclosedTries = 4;
+
 // The needle and sliver elements and the triangles they are made of.
 struct SmallElements {
     std::span<const Patch> patches;
@@ -911,18 +917,7 @@ class Solver {
         for (std::size_t k = 0; k < todo.size(); ++k) cost[k] = row_cost(todo[k]);
         const std::vector<double> secs = make_rows(
             cost, [&](std::size_t k) -> Row& { return m_rows[todo[k]]; },
-            [&](std::size_t k, Row& row) {
-                const ShooterFrame& frame = m_shooters[todo[k]];
-                const ShootResult shot = shoot(frame, m_vis, m_row_hemicube, m_shoot);
-                double shooter_area = 0.0;
-                for (const std::uint32_t e : members_of(todo[k]))
-                    shooter_area += m_sol.elements[e].area;
-                const std::vector<double> ratio =
-                    near_ratios(todo[k], frame, shooter_area, shot.hits);
-                fold_row(shot.hits, m_sol.elements, frame, shooter_area, &m_small, m_region_normal,
-                         row, ratio);
-            },
-            "interreflection: hemicubes");
+            [&](std::size_t k, Row& row) { make_row(todo[k], row); }, "interreflection: hemicubes");
         for (std::size_t k = 0; k < todo.size(); ++k) {
             const std::uint32_t r = region_of_shooter(todo[k]);
             m_region_row_seconds[r] += secs[k];
@@ -932,6 +927,40 @@ class Solver {
         m_sol.rows_computed += todo.size();
         for (const std::uint32_t e : todo)
             m_cache_bytes += m_rows[e].entries.size() * sizeof(Entry);
+    }
+
+    // Shooter s's row: its hemicube's form factors folded onto the elements. A shooting point
+    // inside another object (a floor cell's centroid under a cupboard, or under a wall
+    // standing on the slab; a wall cell's behind a sill) sees only that object's backs, and
+    // the shooter's power went to them, counted absorbed: in the FZK-Haus 453 rows put more
+    // than 90 % there. When more than kEnclosedBack of a row lands on backs, the row is made
+    // again from points of the members' pieces (the quarter points of their cells, nearest
+    // first, at most kEnclosedTries), and the one with the least on backs is kept.
+    void make_row(std::uint32_t s, Row& row) const {
+        double shooter_area = 0.0;
+        for (const std::uint32_t e : members_of(s)) shooter_area += m_sol.elements[e].area;
+        const auto from = [&](const ShooterFrame& frame, Row& out) {
+            const ShootResult shot = shoot(frame, m_vis, m_row_hemicube, m_shoot);
+            const std::vector<double> ratio = near_ratios(s, frame, shooter_area, shot.hits);
+            fold_row(shot.hits, m_sol.elements, frame, shooter_area, &m_small, m_region_normal, out,
+                     ratio);
+        };
+        const ShooterFrame& frame = m_shooters[s];
+        from(frame, row);
+        const auto back = [](const Row& r) { return r.total - r.front; };
+        if (!(back(row) > kEnclosedBack * row.total)) return;
+        std::vector<glm::dvec3> points;
+        area_samples(members_of(s), 2, points);
+        std::sort(points.begin(), points.end(), [&](const glm::dvec3& a, const glm::dvec3& b) {
+            const double da = glm::length(a - frame.origin), db = glm::length(b - frame.origin);
+            return da != db ? da < db : lexicographically_less(a, b);
+        });
+        Row other;
+        for (std::size_t k = 0; k < points.size() && k < kEnclosedTries; ++k) {
+            from(ShooterFrame::at(points[k], frame.n), other);
+            if (back(other) < back(row)) std::swap(row, other);
+            if (!(back(row) > kEnclosedBack * row.total)) return;
+        }
     }
 
     // Element e's pieces: its region's outline triangles that meet its cell, clipped to it

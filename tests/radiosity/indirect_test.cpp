@@ -429,6 +429,61 @@ TEST(Interreflection, BlackRoomLightAndObstructionAgainstTheClosedForm) {
     }
 }
 
+// A box standing on a lit floor (no bottom face: the floor under it is closed in) covers the
+// centres of four floor cells. Those elements receive on the part of their cell the box leaves
+// free, and used to shoot from their centroids, inside the box, onto the backs of its faces,
+// where the light was counted absorbed. Their rows are made again from points of their pieces
+// that see out: nothing is left on backs.
+TEST(Interreflection, AnElementWhoseCentreABoxCoversShootsFromWhatItShows) {
+    std::vector<Patch> patches;
+    std::vector<visdb::Rgb> reflectance, emittance;
+    std::vector<std::uint32_t> region;
+    std::vector<glm::dvec3> normal;
+    // a b c: counter-clockwise from the front; the quad's fourth corner is a + c − b
+    const auto quad = [&](glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, double r, double e) {
+        const glm::dvec3 d = a + c - b;
+        patches.push_back({{a, b, c}});
+        patches.push_back({{a, c, d}});
+        for (int k = 0; k < 2; ++k) {
+            reflectance.emplace_back(r);
+            emittance.emplace_back(e);
+            region.push_back(static_cast<std::uint32_t>(normal.size()));
+        }
+        normal.push_back(glm::normalize(glm::cross(b - a, c - a)));
+    };
+    const double h = 0.3, top = 0.5;  // the box [−h, h]² × [0, top]; cell centres at ±0.25
+    quad({-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, 0.5, 0.0);              // floor, +z
+    quad({-h, -h, top}, {h, -h, top}, {h, h, top}, 0.5, 0.0);        // box top, +z
+    quad({-h, -h, 0}, {h, -h, 0}, {h, -h, top}, 0.5, 0.0);           // −y
+    quad({h, h, 0}, {-h, h, 0}, {-h, h, top}, 0.5, 0.0);             // +y
+    quad({-h, h, 0}, {-h, -h, 0}, {-h, -h, top}, 0.5, 0.0);          // −x
+    quad({h, -h, 0}, {h, h, 0}, {h, h, top}, 0.5, 0.0);              // +x
+    quad({-0.5, 1, 2.5}, {-0.5, 2, 2.5}, {0.5, 2, 2.5}, 0.0, 10.0);  // light, −z
+    const IndirectInput in{.patches = patches,
+                           .reflectance = reflectance,
+                           .emittance = emittance,
+                           .region = region,
+                           .region_normal = normal};
+    IndirectOptions o;
+    o.bounces = 1;  // the floor's and the box's reflection, once
+    const IndirectSolution sol = solve_indirect(in, o);
+    // Absorbed on fronts: Σ (1 − ρ) H A; the rest of what the energy balance counts absorbed
+    // landed on backs
+    double fronts = 0.0;
+    int covered = 0;
+    for (const IndirectSolution::Element& el : sol.elements) {
+        fronts +=
+            visdb::channel_mean((visdb::Rgb(1.0) - el.reflectance) * (el.direct + el.indirect)) *
+            el.area;
+        covered += el.region == 0 && std::abs(el.centroid.x) < h && std::abs(el.centroid.y) < h;
+    }
+    const double backs = sol.energy.absorbed - fronts;
+    std::printf("emitted %.4f W, on backs %.5f W, %d floor elements' centroids under the box\n",
+                sol.energy.emitted, backs, covered);
+    ASSERT_EQ(covered, 4);
+    EXPECT_LT(backs, 1e-3 * sol.energy.emitted);
+}
+
 // A floor (ρ = 0.5) under a light and one black wall rising from its edge, one bounce: per wall
 // element (all 8 × 6 of 0.5 m), its indirect irradiance over what the floor elements'
 // radiosity sends it through the exact area-to-area form factors (each floor element's area
