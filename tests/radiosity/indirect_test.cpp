@@ -429,18 +429,14 @@ TEST(Interreflection, BlackRoomLightAndObstructionAgainstTheClosedForm) {
     }
 }
 
-// A box standing on a lit floor (no bottom face: the floor under it is closed in) covers the
-// centres of four floor cells. Those elements receive on the part of their cell the box leaves
-// free, and used to shoot from their centroids, inside the box, onto the backs of its faces,
-// where the light was counted absorbed. Their rows are made again from points of their pieces
-// that see out: nothing is left on backs.
-TEST(Interreflection, AnElementWhoseCentreABoxCoversShootsFromWhatItShows) {
+// Planar quads as solve_indirect's input, each quad a region of its own.
+struct QuadScene {
     std::vector<Patch> patches;
     std::vector<visdb::Rgb> reflectance, emittance;
     std::vector<std::uint32_t> region;
-    std::vector<glm::dvec3> normal;
-    // a b c: counter-clockwise from the front; the quad's fourth corner is a + c − b
-    const auto quad = [&](glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, double r, double e) {
+    std::vector<glm::dvec3> normal;  // per region
+    // a b c counter-clockwise from the front; the fourth corner is a + c − b
+    void quad(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, double r, double e) {
         const glm::dvec3 d = a + c - b;
         patches.push_back({{a, b, c}});
         patches.push_back({{a, c, d}});
@@ -450,23 +446,34 @@ TEST(Interreflection, AnElementWhoseCentreABoxCoversShootsFromWhatItShows) {
             region.push_back(static_cast<std::uint32_t>(normal.size()));
         }
         normal.push_back(glm::normalize(glm::cross(b - a, c - a)));
-    };
+    }
+    IndirectInput input() const {
+        return {.patches = patches,
+                .reflectance = reflectance,
+                .emittance = emittance,
+                .region = region,
+                .region_normal = normal};
+    }
+};
+
+// A box standing on a lit floor (no bottom face: the floor under it is closed in) covers the
+// centres of four floor cells. Those elements receive on the part of their cell the box leaves
+// free, and used to shoot from their centroids, inside the box, onto the backs of its faces,
+// where the light was counted absorbed. Their rows are made again from points of their pieces
+// that see out: nothing is left on backs.
+TEST(Interreflection, AnElementWhoseCentreABoxCoversShootsFromWhatItShows) {
+    QuadScene q;
     const double h = 0.3, top = 0.5;  // the box [−h, h]² × [0, top]; cell centres at ±0.25
-    quad({-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, 0.5, 0.0);              // floor, +z
-    quad({-h, -h, top}, {h, -h, top}, {h, h, top}, 0.5, 0.0);        // box top, +z
-    quad({-h, -h, 0}, {h, -h, 0}, {h, -h, top}, 0.5, 0.0);           // −y
-    quad({h, h, 0}, {-h, h, 0}, {-h, h, top}, 0.5, 0.0);             // +y
-    quad({-h, h, 0}, {-h, -h, 0}, {-h, -h, top}, 0.5, 0.0);          // −x
-    quad({h, -h, 0}, {h, h, 0}, {h, h, top}, 0.5, 0.0);              // +x
-    quad({-0.5, 1, 2.5}, {-0.5, 2, 2.5}, {0.5, 2, 2.5}, 0.0, 10.0);  // light, −z
-    const IndirectInput in{.patches = patches,
-                           .reflectance = reflectance,
-                           .emittance = emittance,
-                           .region = region,
-                           .region_normal = normal};
+    q.quad({-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, 0.5, 0.0);              // floor, +z
+    q.quad({-h, -h, top}, {h, -h, top}, {h, h, top}, 0.5, 0.0);        // box top, +z
+    q.quad({-h, -h, 0}, {h, -h, 0}, {h, -h, top}, 0.5, 0.0);           // −y
+    q.quad({h, h, 0}, {-h, h, 0}, {-h, h, top}, 0.5, 0.0);             // +y
+    q.quad({-h, h, 0}, {-h, -h, 0}, {-h, -h, top}, 0.5, 0.0);          // −x
+    q.quad({h, -h, 0}, {h, h, 0}, {h, h, top}, 0.5, 0.0);              // +x
+    q.quad({-0.5, 1, 2.5}, {-0.5, 2, 2.5}, {0.5, 2, 2.5}, 0.0, 10.0);  // light, −z
     IndirectOptions o;
     o.bounces = 1;  // the floor's and the box's reflection, once
-    const IndirectSolution sol = solve_indirect(in, o);
+    const IndirectSolution sol = solve_indirect(q.input(), o);
     // Absorbed on fronts: Σ (1 − ρ) H A; the rest of what the energy balance counts absorbed
     // landed on backs
     double fronts = 0.0;
@@ -494,32 +501,14 @@ struct WallElementError {
 };
 std::vector<WallElementError> wall_beside_a_lit_floor(int row_resolution) {
     const double rho = 0.5;
-    std::vector<Patch> patches;
-    std::vector<visdb::Rgb> reflectance, emittance;
-    std::vector<std::uint32_t> region;
-    const auto quad = [&](glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d, double r,
-                          double e, std::uint32_t g) {  // a b c d counter-clockwise from the front
-        patches.push_back({{a, b, c}});
-        patches.push_back({{a, c, d}});
-        for (int k = 0; k < 2; ++k) {
-            reflectance.emplace_back(r);
-            emittance.emplace_back(e);
-            region.push_back(g);
-        }
-    };
-    quad({-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, {-2, 2, 0}, rho, 0.0, 0);         // floor, facing +z
-    quad({-2, -2, 0}, {-2, -2, 3}, {2, -2, 3}, {2, -2, 0}, 0.0, 0.0, 1);       // wall y = −2, +y
-    quad({-0.5, 0, 3}, {-0.5, 1, 3}, {0.5, 1, 3}, {0.5, 0, 3}, 0.0, 10.0, 2);  // light, −z
-    const std::vector<glm::dvec3> normal = {{0, 0, 1}, {0, 1, 0}, {0, 0, -1}};
-    const IndirectInput in{.patches = patches,
-                           .reflectance = reflectance,
-                           .emittance = emittance,
-                           .region = region,
-                           .region_normal = normal};
+    QuadScene q;
+    q.quad({-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, rho, 0.0);        // floor, +z (region 0)
+    q.quad({-2, -2, 0}, {-2, -2, 3}, {2, -2, 3}, 0.0, 0.0);      // wall y = −2, +y (1)
+    q.quad({-0.5, 0, 3}, {-0.5, 1, 3}, {0.5, 1, 3}, 0.0, 10.0);  // light, −z (2)
     IndirectOptions o;
     o.bounces = 1;  // the floor's reflection, once: no ambient term
     o.row_resolution = row_resolution;
-    const IndirectSolution sol = solve_indirect(in, o);
+    const IndirectSolution sol = solve_indirect(q.input(), o);
 
     // An element's rectangle: its cell within its region's rectangle (the grids are axis
     // aligned here)
