@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -464,9 +465,16 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
                    std::vector<std::pair<PointKey, visdb::Rgb>>& evaluated) {
     std::vector<const Patch*> occ;
     const glm::dvec3 rn = regions.planar[r].normal;
-    // Splits at x when its value departs from `linear` by more than the tolerance; `whole`:
-    // the value and `linear` are of the whole field, else of the direct part
-    const auto test = [&](const glm::dvec3& x, const visdb::Rgb& linear, bool whole) {
+    // Splits at x when its value departs from the mean of the corners' by more than the
+    // tolerance: of the whole field when the edge (or the triangle's longest) is `length` ≥
+    // whole_from, else of the direct part
+    const auto test = [&](const glm::dvec3& x, std::initializer_list<std::uint32_t> corners,
+                          double length) {
+        const bool whole = f.total && length >= f.whole_from;
+        const visdb::Rgb* h = whole ? f.total : f.direct;
+        visdb::Rgb linear(0.0);
+        for (const std::uint32_t v : corners) linear += h[v];
+        linear /= static_cast<double>(corners.size());
         const PointKey key = key_of(r, x);
         const auto hit = cache.find(key);
         visdb::Rgb exact;
@@ -495,9 +503,7 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
         // Canonical midpoint: the same bits from either region sharing the edge
         const glm::dvec3 mid =
             lexicographically_less(pa, pb) ? pa + 0.5 * (pb - pa) : pb + 0.5 * (pa - pb);
-        const bool whole = f.total && length >= f.whole_from;
-        const visdb::Rgb* h = whole ? f.total : f.direct;
-        test(mid, 0.5 * (h[a] + h[b]), whole);
+        test(mid, {a, b}, length);
     }
     for (const glm::u32vec3& t : m.triangles) {
         std::array<glm::dvec3, 3> p = {m.positions[t.x], m.positions[t.y], m.positions[t.z]};
@@ -507,9 +513,7 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
         // The corners in one order, so that the centroid's bits do not depend on the
         // mesher's numbering
         std::sort(p.begin(), p.end(), lexicographically_less);
-        const bool whole = f.total && longest >= f.whole_from;
-        const visdb::Rgb* h = whole ? f.total : f.direct;
-        test((p[0] + p[1] + p[2]) / 3.0, (h[t.x] + h[t.y] + h[t.z]) / 3.0, whole);
+        test((p[0] + p[1] + p[2]) / 3.0, {t.x, t.y, t.z}, longest);
     }
 }
 

@@ -950,7 +950,8 @@ class Solver {
         const ShooterFrame& frame = m_shooters[s];
         from(frame, row);
         const auto back = [](const Row& r) { return r.total - r.front; };
-        if (!(back(row) > kEnclosedBack * row.total)) return;
+        const auto enclosed = [&](const Row& r) { return back(r) > kEnclosedBack * r.total; };
+        if (!enclosed(row)) return;
         std::vector<glm::dvec3> points;
         area_samples(members_of(s), 2, points);
         std::sort(points.begin(), points.end(), [&](const glm::dvec3& a, const glm::dvec3& b) {
@@ -961,7 +962,7 @@ class Solver {
         for (std::size_t k = 0; k < points.size() && k < kEnclosedTries; ++k) {
             from(ShooterFrame::at(points[k], frame.n), other);
             if (back(other) < back(row)) std::swap(row, other);
-            if (!(back(row) > kEnclosedBack * row.total)) return;
+            if (!enclosed(row)) return;
         }
     }
 

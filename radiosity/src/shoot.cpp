@@ -582,11 +582,11 @@ void project_patch(const Hemicube& hc, const glm::dvec3 local[3], Emit&& emit) {
     // angle. A hair in front of the point (the planar regions' tolerance, rounding) it would
     // cover the whole hemicube as a ceiling right above the point: a wall element's row then
     // gave its whole power to its own back
-    const double reach =
-        std::max({glm::length(local[0]), glm::length(local[1]), glm::length(local[2])});
-    if (std::max({std::abs(local[0].z), std::abs(local[1].z), std::abs(local[2].z)}) <=
-        kInPlane * reach)
-        return;
+    // (squared: no root on every triangle of every hemicube)
+    const double z = std::max({std::abs(local[0].z), std::abs(local[1].z), std::abs(local[2].z)});
+    const double reach2 = std::max(
+        {glm::dot(local[0], local[0]), glm::dot(local[1], local[1]), glm::dot(local[2], local[2])});
+    if (z * z <= kInPlane * kInPlane * reach2) return;
     // Points closer than this to the shooting point are dropped (near plane), metres
     constexpr double kNear = 1e-9;
     for (int f = 0; f < kFaceCount; ++f) {
