@@ -491,14 +491,8 @@ double mean_direct_at_vertices(const visdb::Scene& scene, const visdb::Bake& b) 
     for (std::size_t v = 0; v < d.size(); ++v)
         d[v] = visdb::channel_mean(
             direct.irradiance(b.mesh.positions[v], glm::dvec3(b.mesh.normals[v])));
-    double sum = 0.0, area = 0.0;
-    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
-        const double a = abrad::testing::triangle_area(b.mesh, t);
-        const glm::u32vec3 tri = b.mesh.triangles[t];
-        sum += a * (d[tri.x] + d[tri.y] + d[tri.z]) / 3.0;
-        area += a;
-    }
-    return sum / area;
+    return abrad::testing::area_mean(
+        b.mesh, [&](std::uint32_t v) { return d[v]; }, [](std::size_t) { return true; });
 }
 
 TEST(Cie171, Case58InterreflectionsInAClosedRoom) {

@@ -16,6 +16,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,10 +26,14 @@
 #include "abrad/radiosity/indirect.h"
 #include "analytic.h"
 #include "cie171.h"
+#include "mesh_checks.h"
 
 namespace abrad::radiosity {
 namespace {
 
+using abrad::testing::area_mean;
+using abrad::testing::gouraud_at;
+using abrad::testing::irradiance_at;
 using glm::dvec3;
 using testing::AxisRect;
 using testing::ff_axis_rect;
@@ -288,25 +293,24 @@ TEST(IndirectCorners, ACeilingLitOnlyByReflectionIsExportedWithItsLight) {
     const double rho = 0.5;
     const visdb::Scene scene = room_scene(rho, {-2.0, -0.5, 0.5, 2.0});
     const visdb::Bake b = bake(scene, BakeOptions{});
-    double sum = 0.0, area = 0.0;
-    std::size_t vertices = 0;
-    std::vector<bool> seen(b.mesh.positions.size(), false);
-    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
-        const glm::u32vec3 tri = b.mesh.triangles[t];
-        const dvec3 p[3] = {b.mesh.positions[tri.x], b.mesh.positions[tri.y],
-                            b.mesh.positions[tri.z]};
-        if (p[0].z != 4.0 || p[1].z != 4.0 || p[2].z != 4.0) continue;
+    const visdb::BakeMesh& m = b.mesh;
+    // The ceiling's triangles, the source's left out; no direct light: all of it reflected
+    const auto ceiling = [&](std::size_t t) {
+        const glm::u32vec3 tri = m.triangles[t];
+        const dvec3 p[3] = {m.positions[tri.x], m.positions[tri.y], m.positions[tri.z]};
         const dvec3 c = (p[0] + p[1] + p[2]) / 3.0;
-        if (std::abs(c.x) < 0.5 && std::abs(c.y) < 0.5) continue;  // the source
-        const double a = 0.5 * glm::length(glm::cross(p[1] - p[0], p[2] - p[0]));
-        double h = 0.0;
-        for (int k = 0; k < 3; ++k) {
-            h += b.mesh.irradiance[tri[k]].y / 3.0;  // no direct light: all of it reflected
-            if (!seen[tri[k]]) seen[tri[k]] = true, ++vertices;
-        }
-        sum += a * h;
-        area += a;
-    }
+        return p[0].z == 4.0 && p[1].z == 4.0 && p[2].z == 4.0 &&
+               !(std::abs(c.x) < 0.5 && std::abs(c.y) < 0.5);
+    };
+    double area = 0.0;
+    const double mean = area_mean(
+        m, [&](std::uint32_t v) { return irradiance_at(m, v); }, ceiling, &area);
+    std::vector<bool> seen(m.positions.size(), false);
+    std::size_t vertices = 0;
+    for (std::size_t t = 0; t < m.triangles.size(); ++t)
+        if (ceiling(t))
+            for (int k = 0; k < 3; ++k)
+                if (!seen[m.triangles[t][k]]) seen[m.triangles[t][k]] = true, ++vertices;
     ASSERT_NEAR(area, 15.0, 1e-9);
     const RoomReference reference(rho, kReferenceBreaks);
     const double expected = reference.mean_indirect(rho, [](const dvec3& x, const dvec3& n) {
@@ -321,21 +325,9 @@ TEST(IndirectCorners, ACeilingLitOnlyByReflectionIsExportedWithItsLight) {
         for (double px = -1.25; px <= 1.25 + 1e-9; px += 0.05) {
             if (std::abs(px) < 0.55 && std::abs(py) < 0.55) continue;  // the source and its rim
             const dvec3 x(px, py, 4.0);
-            double value = -1.0;
-            for (std::size_t t = 0; t < b.mesh.triangles.size() && value < 0.0; ++t) {
-                const glm::u32vec3 tri = b.mesh.triangles[t];
-                const dvec3 p0 = b.mesh.positions[tri.x], p1 = b.mesh.positions[tri.y],
-                            p2 = b.mesh.positions[tri.z];
-                if (p0.z != 4.0 || p1.z != 4.0 || p2.z != 4.0) continue;
-                const double d = (p1.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (p1.y - p0.y);
-                const double u = ((x.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (x.y - p0.y)) / d;
-                const double v = ((p1.x - p0.x) * (x.y - p0.y) - (x.x - p0.x) * (p1.y - p0.y)) / d;
-                if (u < -1e-12 || v < -1e-12 || u + v > 1.0 + 1e-12) continue;
-                value = (1.0 - u - v) * b.mesh.irradiance[tri.x].y +
-                        u * b.mesh.irradiance[tri.y].y + v * b.mesh.irradiance[tri.z].y;
-            }
-            ASSERT_GE(value, 0.0) << "no ceiling triangle at " << px << ", " << py;
-            const double error = value / reference.indirect(x, {0, 0, -1}) - 1.0;
+            const std::optional<double> value = gouraud_at(m, x, {0, 0, -1});
+            ASSERT_TRUE(value) << "no ceiling triangle at " << px << ", " << py;
+            const double error = *value / reference.indirect(x, {0, 0, -1}) - 1.0;
             worst = std::max(worst, std::abs(error));
             squares += error * error;
             ++points;
@@ -344,9 +336,9 @@ TEST(IndirectCorners, ACeilingLitOnlyByReflectionIsExportedWithItsLight) {
     std::printf(
         "ceiling: %zu vertices, exported mean %.5f W/m2, reference %.5f: %+.2f %%; "
         "%d points: RMS %.2f %%, worst %.2f %%\n",
-        vertices, sum / area, expected, 100.0 * (sum / area / expected - 1.0), points, 100.0 * rms,
+        vertices, mean, expected, 100.0 * (mean / expected - 1.0), points, 100.0 * rms,
         100.0 * worst);
-    EXPECT_NEAR(sum / area, expected, 0.01 * expected);
+    EXPECT_NEAR(mean, expected, 0.01 * expected);
     EXPECT_LT(rms, 0.03);
     EXPECT_LT(worst, 0.06);
 }

@@ -63,6 +63,12 @@ inline double triangle_area(const visdb::BakeMesh& m, std::size_t t) {
                                         m.positions[tri.z] - m.positions[tri.x]));
 }
 
+/// The vertex's irradiance, mean over RGB.
+inline double irradiance_at(const visdb::BakeMesh& m, std::uint32_t v) {
+    const glm::vec3 x = m.irradiance[v];
+    return (double(x.x) + x.y + x.z) / 3.0;
+}
+
 /// The exported field at `p`: the Gouraud (barycentric) interpolation of the vertex
 /// irradiance (mean over RGB) of the triangle of `m` holding p (within 1e-7 m of its plane)
 /// whose front normal is `n`; nullopt when no triangle holds it.
@@ -81,31 +87,34 @@ inline std::optional<double> gouraud_at(const visdb::BakeMesh& m, const glm::dve
         const double den = d11 * d22 - d12 * d12;
         const double v = (d22 * d1 - d12 * d2) / den, w = (d11 * d2 - d12 * d1) / den;
         if (v < -1e-9 || w < -1e-9 || v + w > 1.0 + 1e-9) continue;
-        auto h = [&](std::uint32_t i) {
-            const glm::vec3 x = m.irradiance[i];
-            return (double(x.x) + x.y + x.z) / 3.0;
-        };
-        return (1.0 - v - w) * h(t.x) + v * h(t.y) + w * h(t.z);
+        return (1.0 - v - w) * irradiance_at(m, t.x) + v * irradiance_at(m, t.y) +
+               w * irradiance_at(m, t.z);
     }
     return std::nullopt;
+}
+
+/// Area-weighted mean over the triangles `keep(t)` accepts of the Gouraud-interpolated field
+/// of the vertex values `value(v)`; their total area goes to `area_out` when given.
+template <class Value, class Keep>
+double area_mean(const visdb::BakeMesh& m, Value value, Keep keep, double* area_out = nullptr) {
+    double sum = 0.0, area = 0.0;
+    for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+        if (!keep(t)) continue;
+        const double a = triangle_area(m, t);
+        const auto& tri = m.triangles[t];
+        sum += a * (value(tri.x) + value(tri.y) + value(tri.z)) / 3.0;
+        area += a;
+    }
+    if (area_out) *area_out = area;
+    return sum / area;
 }
 
 // Area-weighted mean irradiance (mean over RGB) of the mesh's Gouraud-interpolated field;
 // the total area goes to `area_out` when given.
 inline double mean_irradiance(const visdb::Bake& b, double* area_out = nullptr) {
-    double sum = 0.0, area = 0.0;
-    for (std::size_t t = 0; t < b.mesh.triangles.size(); ++t) {
-        const double a = triangle_area(b.mesh, t);
-        double h = 0.0;
-        for (int k = 0; k < 3; ++k) {
-            const glm::vec3 x = b.mesh.irradiance[b.mesh.triangles[t][k]];
-            h += (double(x.x) + x.y + x.z) / 9.0;
-        }
-        sum += a * h;
-        area += a;
-    }
-    if (area_out) *area_out = area;
-    return sum / area;
+    return area_mean(
+        b.mesh, [&](std::uint32_t v) { return irradiance_at(b.mesh, v); },
+        [](std::size_t) { return true; }, area_out);
 }
 
 }  // namespace abrad::testing
