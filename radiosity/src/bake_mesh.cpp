@@ -91,24 +91,52 @@ double bounding_diagonal(const std::vector<glm::dvec3>& positions) {
     return glm::length(hi - lo);
 }
 
+/// The diagonal of the bounding box of every surface's vertices.
+double scene_diagonal(const visdb::Scene& scene) {
+    std::vector<glm::dvec3> corners;
+    for (const visdb::Surface& surface : scene.surfaces) {
+        if (surface.mesh.positions.empty()) continue;
+        glm::dvec3 lo = surface.mesh.positions[0], hi = lo;
+        for (const glm::dvec3& p : surface.mesh.positions) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+        corners.push_back(lo);
+        corners.push_back(hi);
+    }
+    return bounding_diagonal(corners);
+}
+
 }  // namespace
 
 BakeGeometry build_bake_mesh(const visdb::Scene& scene, visdb::BakeStats* stats) {
     BakeGeometry g;
     g.luminaires = scene.luminaires;
     std::uint64_t degenerate = 0;
-    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
-        const visdb::Surface& surface = scene.surfaces[s];
+    for (const visdb::Surface& surface : scene.surfaces)
         if (surface.material >= scene.materials.size())
             throw InputError("surface '" + surface.name + "' has no material " +
                              std::to_string(surface.material));
-        add_surface(surface, static_cast<std::uint32_t>(s), scene.materials[surface.material], g,
-                    degenerate);
+    ContactCut contacts = hide_contacts(scene, scene_diagonal(scene));
+    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
+        const visdb::Surface& surface = scene.surfaces[s];
+        const visdb::Material& material = scene.materials[surface.material];
+        if (contacts.meshes[s]) {
+            visdb::Surface cut{surface.name, surface.layer, surface.material, surface.source,
+                               std::move(*contacts.meshes[s])};
+            add_surface(cut, static_cast<std::uint32_t>(s), material, g, degenerate);
+        } else {
+            add_surface(surface, static_cast<std::uint32_t>(s), material, g, degenerate);
+        }
     }
     build_incidence(g);
     find_lights(g);
     g.size = bounding_diagonal(g.mesh.positions);
-    if (stats) stats->degenerate_skipped = degenerate;
+    if (stats) {
+        stats->degenerate_skipped = degenerate;
+        stats->contact_hidden_m2 = contacts.hidden_m2;
+        stats->contact_faces_cut = contacts.faces_cut;
+    }
     if (g.mesh.triangles.empty()) throw InputError("the scene has no triangles to bake");
     if (g.lights.empty() && g.luminaires.empty()) {
         throw InputError(

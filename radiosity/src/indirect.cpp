@@ -482,7 +482,15 @@ class Solver {
             // region's mean plane, are not the triangle's own)
             double sum = 0.0;
             for (const Piece& q : pieces) sum += q.area;
-            if (!(sum > 0.0)) continue;
+            if (!(sum > 0.0)) {
+                // A needle the clipping left no area of: whole, in the cell of its centroid
+                // (a region of needles alone must still have elements to hand its pixels to)
+                const glm::dvec2 c = (tri[0] + tri[1] + tri[2]) / 3.0;
+                whole[t] = main[t] = element_of(r, static_cast<int>(std::floor(c.x)),
+                                                static_cast<int>(std::floor(c.y)));
+                add_to(whole[t], t, tri_area, centroid(p));
+                continue;
+            }
             const auto largest =
                 std::max_element(pieces.begin(), pieces.end(),
                                  [](const Piece& a, const Piece& b) { return a.area < b.area; });

@@ -2,7 +2,8 @@
 // The stages of the bake, in the order bake.cpp runs them (the shape they share is stated at
 // the top of bake.h). Internal to the radiosity library: one file per stage.
 //
-//   build_bake_mesh     bake_mesh.cpp       the scene's triangles, split by surface and normal
+//   build_bake_mesh     bake_mesh.cpp       the scene's triangles, split by surface and normal,
+//                       contacts.cpp        less the parts pressed against another solid
 //   shoot_lights        shoot_lights.cpp    one hemicube per light: patch irradiance, exact
 //                                           vertex irradiance (no DM), shadow segments (DM)
 //   interreflect        interreflect.cpp    progressive refinement on elements (indirect.h)
@@ -52,6 +53,19 @@ inline double refine_min_edge(const BakeOptions& options, double size) {
     return options.refine_min_edge > 0.0 ? options.refine_min_edge
                                          : std::min(kMinEdgeMetres, kMinEdgeFraction * size);
 }
+
+/// The scene's surfaces with their hidden contacts cut away (contacts.cpp): the parts of a
+/// face covered by an opaque face of another surface lying in its plane (within 1e-6 of the
+/// model's size), facing it, with that surface's solid behind it (a wall's top under the slab,
+/// its foot on the floor, a cupboard's bottom). Neither face can receive or send light there.
+/// Cut faces are triangulated again from their convex remainders, and their neighbours split
+/// where the cuts put vertices on their edges (no T-junctions).
+struct ContactCut {
+    std::vector<std::optional<visdb::TriangleMesh>> meshes;  ///< per surface; none: unchanged
+    double hidden_m2 = 0.0;                                  ///< area cut away
+    std::size_t faces_cut = 0;                               ///< faces cut (or removed)
+};
+ContactCut hide_contacts(const visdb::Scene& scene, double size);
 
 /// A mesh to shoot onto and shade, with what shading needs beside it: per triangle its
 /// patch, area and material; per vertex its triangles (compressed rows).

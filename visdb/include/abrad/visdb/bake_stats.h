@@ -125,6 +125,8 @@ struct BakeStats {
     std::uint64_t triangles = 0;  ///< of the output mesh
     std::uint64_t vertices = 0;   ///< of the output mesh
     std::uint64_t degenerate_skipped = 0;
+    double contact_hidden_m2 = 0.0;       ///< faces' area pressed against another solid, cut away
+    std::uint64_t contact_faces_cut = 0;  ///< faces cut there
     std::uint64_t light_triangles = 0;
     double light_area_m2 = 0.0;
     ShootStats shoot;
@@ -148,6 +150,8 @@ void shoot_keys(S& s, F& f) {
     f("triangles", s.triangles);
     f("vertices", s.vertices);
     f("degenerate_skipped", s.degenerate_skipped);
+    f("contact_hidden_m2", s.contact_hidden_m2);
+    f("contact_faces_cut", s.contact_faces_cut);
     f("light_triangles", s.light_triangles);
     f("light_area_m2", s.light_area_m2);
     f("fragments", s.shoot.fragments);

@@ -1,0 +1,281 @@
+// Stage 1, before the bake mesh: the parts of faces pressed against another solid's face are
+// hidden, and cut away (stages.h hide_contacts).
+//
+// A wall's top under the slab, its foot on the floor, a cupboard's bottom: two opaque faces
+// in one plane, facing each other, where neither can receive or send light. Left in the
+// mesh, the slab's underside is one planar region over every room of a storey, and the
+// interreflection's elements (cells of a region's grid) straddle the walls: an element lit in
+// one room shoots that light from its point in the next, and its mean over the hidden strip
+// darkens the field interpolated into both rooms (the FZK-Haus ceiling exported 7.6 % below
+// its solution with 0.5 m elements, 1.6 % with 0.25 m). Cut away, each room's ceiling is its
+// own region, and no element spans a wall.
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <map>
+#include <utility>
+#include <vector>
+
+#include "abrad/radiosity/polygon.h"
+#include "stages.h"
+
+namespace abrad::radiosity {
+
+namespace {
+
+// Two faces touch when every corner of one lies within this fraction of the model's size of
+// the other's plane (1e-5 m in a 10 m building), their normals opposite to cos 1 − 1e-6.
+constexpr double kContactDistance = 1e-6;
+constexpr double kOpposite = 1.0 - 1e-6;
+// A face has a solid behind it when a vertex of its surface lies this fraction of the model's
+// size behind its plane (a wall's top: the wall's foot; a back-to-back sheet has none)
+constexpr double kSolidBehind = 1e-4;
+// Pieces of less than this fraction of the model's size squared are rounding, not area
+constexpr double kSliver = 1e-14;
+
+// The T-junction repair: triangles whose height is under this many tolerances are left as
+// they are, and an input triangle is split at most this many times (a guard: tolerances
+// could otherwise cycle among near-collinear vertices)
+constexpr double kNeedle = 4.0;
+constexpr int kMaxSplits = 256;
+
+using Piece = FixedPolygon<glm::dvec3, 32>;
+
+struct ContactFace {
+    std::uint32_t surface = 0, triangle = 0;
+    glm::dvec3 n{0.0};  // unit
+};
+
+double area_of(const Piece& p) { return glm::length(area_vector(p)); }
+
+// `piece` less triangle `u` (its unit normal `n`, its plane `piece`'s): the parts outside each
+// of u's edges in turn, convex; `overlap` set when some of `piece` lay inside u.
+void subtract(const Piece& piece, const glm::dvec3 (&u)[3], const glm::dvec3& n, double sliver,
+              std::vector<Piece>& out, bool& overlap) {
+    // Untouched unless some of it lies inside u (u's edge lines would cut it for nothing)
+    Piece inside = piece;
+    for (int k = 0; k < 3 && !inside.empty(); ++k) {
+        const glm::dvec3 a = u[k], inward = glm::cross(n, u[(k + 1) % 3] - a);
+        inside = clip_polygon(inside, [&](const glm::dvec3& x) { return glm::dot(inward, x - a); });
+    }
+    if (inside.size() < 3 || !(area_of(inside) > sliver)) {
+        out.push_back(piece);
+        return;
+    }
+    overlap = true;
+    Piece rest = piece;
+    for (int k = 0; k < 3 && !rest.empty(); ++k) {
+        const glm::dvec3 a = u[k], inward = glm::cross(n, u[(k + 1) % 3] - a);
+        const Piece outside =
+            clip_polygon(rest, [&](const glm::dvec3& x) { return -glm::dot(inward, x - a); });
+        if (outside.size() >= 3 && area_of(outside) > sliver) out.push_back(outside);
+        rest = clip_polygon(rest, [&](const glm::dvec3& x) { return glm::dot(inward, x - a); });
+    }
+}
+
+// Splits triangles at the vertices lying inside their edges (where a cut neighbour made
+// them), so that the mesh has no T-junctions.
+void split_at_vertices(visdb::TriangleMesh& m, std::size_t first_new, double tol) {
+    if (first_new == m.positions.size()) return;
+    std::vector<Box> boxes;
+    for (std::size_t v = first_new; v < m.positions.size(); ++v) {
+        Box b;
+        b.grow(m.positions[v]);
+        b.inflate(tol);
+        boxes.push_back(b);
+    }
+    const Bvh bvh(std::move(boxes));
+    // The first vertex strictly inside an edge of t: (edge, vertex), or edge −1
+    const auto on_edge = [&](const glm::u32vec3& t) -> std::pair<int, std::uint32_t> {
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 a = m.positions[t[k]], b = m.positions[t[(k + 1) % 3]];
+            const double len2 = glm::dot(b - a, b - a);
+            // A needle (its third corner within a few tol of the edge's line) is left as it
+            // is: near-collinear vertices would split it into each other's needles
+            const glm::dvec3 c = m.positions[t[(k + 2) % 3]];
+            if (!(len2 > 0.0) ||
+                glm::length(glm::cross(b - a, c - a)) <= kNeedle * tol * std::sqrt(len2))
+                continue;
+            Box q;
+            q.grow(a);
+            q.grow(b);
+            q.inflate(tol);
+            std::pair<int, std::uint32_t> found{-1, 0};
+            bvh.query(q, [&](std::uint32_t i) {
+                const auto v = static_cast<std::uint32_t>(first_new + i);
+                if (found.first >= 0 || v == t.x || v == t.y || v == t.z) return;
+                // Inside the edge, and further than tol from its ends
+                const glm::dvec3 x = m.positions[v];
+                const double s = glm::dot(x - a, b - a) / len2, len = std::sqrt(len2);
+                if (s * len <= tol || (1.0 - s) * len <= tol) return;
+                if (glm::length(a + s * (b - a) - x) <= tol) found = {k, v};
+            });
+            if (found.first >= 0) return found;
+        }
+        return {-1, 0};
+    };
+    // Depth first from each triangle, so that the output keeps the input's order
+    std::vector<glm::u32vec3> out;
+    out.reserve(m.triangles.size());
+    std::vector<glm::u32vec3> stack;
+    for (const glm::u32vec3& input : m.triangles) {
+        stack.assign(1, input);
+        for (int splits = 0; !stack.empty();) {
+            const glm::u32vec3 t = stack.back();
+            stack.pop_back();
+            const auto [k, v] =
+                splits < kMaxSplits ? on_edge(t) : std::pair<int, std::uint32_t>{-1, 0};
+            ++splits;
+            if (k < 0) {
+                out.push_back(t);
+                continue;
+            }
+            // t = (a, b, c) with v inside a–b: (a, v, c) and (v, b, c)
+            const std::uint32_t a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
+            stack.emplace_back(v, b, c);
+            stack.emplace_back(a, v, c);
+        }
+    }
+    m.triangles = std::move(out);
+}
+
+}  // namespace
+
+ContactCut hide_contacts(const visdb::Scene& scene, double size) {
+    ContactCut out;
+    out.meshes.resize(scene.surfaces.size());
+    const double tol = kContactDistance * size, sliver = kSliver * size * size;
+    // Every face of the scene, with its patch for the BVH
+    std::vector<ContactFace> faces;
+    std::vector<Patch> patches;
+    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
+        const visdb::TriangleMesh& m = scene.surfaces[s].mesh;
+        for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+            const glm::u32vec3 tri = m.triangles[t];
+            const Patch p{{m.positions.at(tri.x), m.positions.at(tri.y), m.positions.at(tri.z)},
+                          1.0};
+            const glm::dvec3 c = cross_normal(p);
+            if (!(glm::length(c) > 0.0) || !std::isfinite(glm::length(c))) continue;
+            faces.push_back(
+                {static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(t), glm::normalize(c)});
+            patches.push_back(p);
+        }
+    }
+    if (faces.empty()) return out;
+    const Bvh bvh(patches);
+    const auto opaque = [&](const ContactFace& f) {
+        const visdb::Surface& s = scene.surfaces[f.surface];
+        return s.material < scene.materials.size() && scene.materials[s.material].opacity >= 1.0;
+    };
+    // Per face, the opaque faces of other surfaces lying on it and facing it
+    std::vector<std::vector<std::uint32_t>> touching(faces.size());
+    tbb::parallel_for(std::size_t{0}, faces.size(), [&](std::size_t i) {
+        const ContactFace& f = faces[i];
+        const Patch& p = patches[i];
+        Box box;
+        for (const glm::dvec3& x : p.p) box.grow(x);
+        box.inflate(tol);
+        bvh.query(box, [&](std::uint32_t j) {
+            const ContactFace& g = faces[j];
+            if (g.surface == f.surface || glm::dot(f.n, g.n) > -kOpposite || !opaque(g)) return;
+            for (const glm::dvec3& x : patches[j].p)
+                if (std::abs(glm::dot(f.n, x - p.p[0])) > tol) return;
+            touching[i].push_back(j);
+        });
+        std::sort(touching[i].begin(), touching[i].end());
+    });
+    // A touching face hides only with a solid behind it (not a sheet's other side)
+    std::vector<signed char> solid(faces.size(), -1);
+    const auto solid_behind = [&](std::uint32_t j) {
+        if (solid[j] < 0) {
+            const ContactFace& g = faces[j];
+            solid[j] = 0;
+            for (const glm::dvec3& x : scene.surfaces[g.surface].mesh.positions)
+                if (glm::dot(g.n, x - patches[j].p[0]) < -kSolidBehind * size) {
+                    solid[j] = 1;
+                    break;
+                }
+        }
+        return solid[j] == 1;
+    };
+    // Cut each touched face, surface by surface
+    std::size_t first = 0;
+    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
+        std::size_t last = first;
+        while (last < faces.size() && faces[last].surface == s) ++last;
+        bool any = false;
+        for (std::size_t i = first; i < last && !any; ++i) any = !touching[i].empty();
+        if (!any) {
+            first = last;
+            continue;
+        }
+        const visdb::TriangleMesh& m = scene.surfaces[s].mesh;
+        visdb::TriangleMesh cut;
+        cut.positions = m.positions;
+        std::map<std::array<double, 3>, std::uint32_t> index;
+        for (std::size_t v = 0; v < m.positions.size(); ++v)
+            index.try_emplace({m.positions[v].x, m.positions[v].y, m.positions[v].z},
+                              static_cast<std::uint32_t>(v));
+        const auto vertex = [&](const glm::dvec3& x) {
+            const auto [it, added] = index.try_emplace(
+                {x.x, x.y, x.z}, static_cast<std::uint32_t>(cut.positions.size()));
+            if (added) cut.positions.push_back(x);
+            return it->second;
+        };
+        std::vector<std::uint32_t> face_of(m.triangles.size(), kNoPatch);
+        for (std::size_t i = first; i < last; ++i)
+            face_of[faces[i].triangle] = static_cast<std::uint32_t>(i);
+        std::vector<Piece> pieces, next;
+        for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+            const std::uint32_t i = face_of[t];
+            if (i == kNoPatch || touching[i].empty()) {
+                cut.triangles.push_back(m.triangles[t]);
+                continue;
+            }
+            pieces.assign(1, {});
+            for (const glm::dvec3& x : patches[i].p) pieces[0].push_back(x);
+            bool overlap = false;
+            for (const std::uint32_t j : touching[i]) {
+                if (!solid_behind(j)) continue;
+                next.clear();
+                bool hit = false;
+                for (const Piece& q : pieces)
+                    subtract(q, patches[j].p, faces[j].n, sliver, next, hit);
+                if (hit) pieces.swap(next);
+                overlap = overlap || hit;
+            }
+            if (!overlap) {
+                cut.triangles.push_back(m.triangles[t]);
+                continue;
+            }
+            const double before = area(patches[i]);
+            double after = 0.0;
+            for (const Piece& q : pieces) {
+                after += area_of(q);
+                // Convex: a fan from the first corner, in the face's own winding
+                const std::uint32_t v0 = vertex(q[0]);
+                for (std::size_t k = 1; k + 1 < q.size(); ++k) {
+                    // Needles (under kNeedle tolerances high) are rounding: left out
+                    const Patch fan{{q[0], q[k], q[k + 1]}, 1.0};
+                    double longest = 0.0;
+                    for (int e = 0; e < 3; ++e)
+                        longest = std::max(longest, glm::distance(fan.p[e], fan.p[(e + 1) % 3]));
+                    if (!(2.0 * area(fan) > kNeedle * tol * longest)) continue;
+                    cut.triangles.emplace_back(v0, vertex(q[k]), vertex(q[k + 1]));
+                }
+            }
+            out.hidden_m2 += std::max(0.0, before - after);
+            ++out.faces_cut;
+        }
+        split_at_vertices(cut, m.positions.size(), tol);
+        out.meshes[s] = std::move(cut);
+        first = last;
+    }
+    return out;
+}
+
+}  // namespace abrad::radiosity
