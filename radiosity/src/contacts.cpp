@@ -143,79 +143,127 @@ void split_at_vertices(visdb::TriangleMesh& m, std::size_t first_new, double tol
     m.triangles = std::move(out);
 }
 
-}  // namespace
+// A fan triangle under kNeedle tolerances high is rounding, not area.
+bool needle(const Patch& p, double tol) {
+    double longest = 0.0;
+    for (int e = 0; e < 3; ++e)
+        longest = std::max(longest, glm::distance(p.p[e], p.p[(e + 1) % 3]));
+    return !(2.0 * area(p) > kNeedle * tol * longest);
+}
 
-ContactCut hide_contacts(const visdb::Scene& scene, double size) {
-    ContactCut out;
-    out.meshes.resize(scene.surfaces.size());
-    const double tol = kContactDistance * size, sliver = kSliver * size * size;
+// The scene's faces, which of them touch which, and the cuts.
+class Cutter {
+  public:
+    Cutter(const visdb::Scene& scene, double size)
+        : m_scene(scene),
+          m_size(size),
+          m_tol(kContactDistance * size),
+          m_sliver(kSliver * size * size) {
+        collect();
+        if (m_faces.empty()) return;
+        find_touching();
+        m_solid.assign(m_faces.size(), -1);
+    }
+
+    ContactCut run() {
+        ContactCut out;
+        out.meshes.resize(m_scene.surfaces.size());
+        // Faces are in surface order: [first, last) are surface s's
+        std::size_t first = 0;
+        for (std::size_t s = 0; s < m_scene.surfaces.size(); ++s) {
+            std::size_t last = first;
+            while (last < m_faces.size() && m_faces[last].surface == s) ++last;
+            bool any = false;
+            for (std::size_t i = first; i < last && !any; ++i) any = !m_touching[i].empty();
+            if (any) cut_surface(static_cast<std::uint32_t>(s), first, last, out);
+            first = last;
+        }
+        return out;
+    }
+
+  private:
     // Every face of the scene, with its patch for the BVH
-    std::vector<ContactFace> faces;
-    std::vector<Patch> patches;
-    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
-        const visdb::TriangleMesh& m = scene.surfaces[s].mesh;
-        for (std::size_t t = 0; t < m.triangles.size(); ++t) {
-            const glm::u32vec3 tri = m.triangles[t];
-            const Patch p{{m.positions.at(tri.x), m.positions.at(tri.y), m.positions.at(tri.z)},
-                          1.0};
-            const glm::dvec3 c = cross_normal(p);
-            if (!(glm::length(c) > 0.0) || !std::isfinite(glm::length(c))) continue;
-            faces.push_back(
-                {static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(t), glm::normalize(c)});
-            patches.push_back(p);
+    void collect() {
+        for (std::size_t s = 0; s < m_scene.surfaces.size(); ++s) {
+            const visdb::TriangleMesh& m = m_scene.surfaces[s].mesh;
+            for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+                const glm::u32vec3 tri = m.triangles[t];
+                const Patch p{{m.positions.at(tri.x), m.positions.at(tri.y), m.positions.at(tri.z)},
+                              1.0};
+                const double len = glm::length(cross_normal(p));
+                if (!(len > 0.0) || !std::isfinite(len)) continue;
+                m_faces.push_back({static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(t),
+                                   cross_normal(p) / len});
+                m_patches.push_back(p);
+            }
         }
     }
-    if (faces.empty()) return out;
-    const Bvh bvh(patches);
-    const auto opaque = [&](const ContactFace& f) {
-        const visdb::Surface& s = scene.surfaces[f.surface];
-        return s.material < scene.materials.size() && scene.materials[s.material].opacity >= 1.0;
-    };
+
+    bool opaque(const ContactFace& f) const {
+        const visdb::Surface& s = m_scene.surfaces[f.surface];
+        return s.material < m_scene.materials.size() &&
+               m_scene.materials[s.material].opacity >= 1.0;
+    }
+
     // Per face, the opaque faces of other surfaces lying on it and facing it
-    std::vector<std::vector<std::uint32_t>> touching(faces.size());
-    tbb::parallel_for(std::size_t{0}, faces.size(), [&](std::size_t i) {
-        const ContactFace& f = faces[i];
-        const Patch& p = patches[i];
-        Box box;
-        for (const glm::dvec3& x : p.p) box.grow(x);
-        box.inflate(tol);
-        bvh.query(box, [&](std::uint32_t j) {
-            const ContactFace& g = faces[j];
-            if (g.surface == f.surface || glm::dot(f.n, g.n) > -kOpposite || !opaque(g)) return;
-            for (const glm::dvec3& x : patches[j].p)
-                if (std::abs(glm::dot(f.n, x - p.p[0])) > tol) return;
-            touching[i].push_back(j);
+    void find_touching() {
+        const Bvh bvh(m_patches);
+        m_touching.resize(m_faces.size());
+        tbb::parallel_for(std::size_t{0}, m_faces.size(), [&](std::size_t i) {
+            const ContactFace& f = m_faces[i];
+            const Patch& p = m_patches[i];
+            Box box;
+            for (const glm::dvec3& x : p.p) box.grow(x);
+            box.inflate(m_tol);
+            bvh.query(box, [&](std::uint32_t j) {
+                const ContactFace& g = m_faces[j];
+                if (g.surface == f.surface || glm::dot(f.n, g.n) > -kOpposite || !opaque(g)) return;
+                for (const glm::dvec3& x : m_patches[j].p)
+                    if (std::abs(glm::dot(f.n, x - p.p[0])) > m_tol) return;
+                m_touching[i].push_back(j);
+            });
+            std::sort(m_touching[i].begin(), m_touching[i].end());
         });
-        std::sort(touching[i].begin(), touching[i].end());
-    });
+    }
+
     // A touching face hides only with a solid behind it (not a sheet's other side)
-    std::vector<signed char> solid(faces.size(), -1);
-    const auto solid_behind = [&](std::uint32_t j) {
-        if (solid[j] < 0) {
-            const ContactFace& g = faces[j];
-            solid[j] = 0;
-            for (const glm::dvec3& x : scene.surfaces[g.surface].mesh.positions)
-                if (glm::dot(g.n, x - patches[j].p[0]) < -kSolidBehind * size) {
-                    solid[j] = 1;
+    bool solid_behind(std::uint32_t j) {
+        if (m_solid[j] < 0) {
+            const ContactFace& g = m_faces[j];
+            m_solid[j] = 0;
+            for (const glm::dvec3& x : m_scene.surfaces[g.surface].mesh.positions)
+                if (glm::dot(g.n, x - m_patches[j].p[0]) < -kSolidBehind * m_size) {
+                    m_solid[j] = 1;
                     break;
                 }
         }
-        return solid[j] == 1;
-    };
-    // Cut each touched face, surface by surface
-    std::size_t first = 0;
-    for (std::size_t s = 0; s < scene.surfaces.size(); ++s) {
-        std::size_t last = first;
-        while (last < faces.size() && faces[last].surface == s) ++last;
-        bool any = false;
-        for (std::size_t i = first; i < last && !any; ++i) any = !touching[i].empty();
-        if (!any) {
-            first = last;
-            continue;
+        return m_solid[j] == 1;
+    }
+
+    // Face i less the faces hiding it, as convex pieces; false when none overlaps it
+    bool remainder(std::size_t i, std::vector<Piece>& pieces) {
+        pieces.assign(1, {});
+        for (const glm::dvec3& x : m_patches[i].p) pieces[0].push_back(x);
+        bool overlap = false;
+        std::vector<Piece> next;
+        for (const std::uint32_t j : m_touching[i]) {
+            if (!solid_behind(j)) continue;
+            next.clear();
+            bool hit = false;
+            for (const Piece& q : pieces)
+                subtract(q, m_patches[j].p, m_faces[j].n, m_sliver, next, hit);
+            if (hit) pieces.swap(next);
+            overlap = overlap || hit;
         }
-        const visdb::TriangleMesh& m = scene.surfaces[s].mesh;
+        return overlap;
+    }
+
+    // Surface s (faces [first, last)) with its hidden parts cut away
+    void cut_surface(std::uint32_t s, std::size_t first, std::size_t last, ContactCut& out) {
+        const visdb::TriangleMesh& m = m_scene.surfaces[s].mesh;
         visdb::TriangleMesh cut;
         cut.positions = m.positions;
+        // New corners by position: the clipping makes a shared edge's points bit-identical
         std::map<std::array<double, 3>, std::uint32_t> index;
         for (std::size_t v = 0; v < m.positions.size(); ++v)
             index.try_emplace({m.positions[v].x, m.positions[v].y, m.positions[v].z},
@@ -228,54 +276,43 @@ ContactCut hide_contacts(const visdb::Scene& scene, double size) {
         };
         std::vector<std::uint32_t> face_of(m.triangles.size(), kNoPatch);
         for (std::size_t i = first; i < last; ++i)
-            face_of[faces[i].triangle] = static_cast<std::uint32_t>(i);
-        std::vector<Piece> pieces, next;
+            face_of[m_faces[i].triangle] = static_cast<std::uint32_t>(i);
+        std::vector<Piece> pieces;
         for (std::size_t t = 0; t < m.triangles.size(); ++t) {
             const std::uint32_t i = face_of[t];
-            if (i == kNoPatch || touching[i].empty()) {
+            if (i == kNoPatch || m_touching[i].empty() || !remainder(i, pieces)) {
                 cut.triangles.push_back(m.triangles[t]);
                 continue;
             }
-            pieces.assign(1, {});
-            for (const glm::dvec3& x : patches[i].p) pieces[0].push_back(x);
-            bool overlap = false;
-            for (const std::uint32_t j : touching[i]) {
-                if (!solid_behind(j)) continue;
-                next.clear();
-                bool hit = false;
-                for (const Piece& q : pieces)
-                    subtract(q, patches[j].p, faces[j].n, sliver, next, hit);
-                if (hit) pieces.swap(next);
-                overlap = overlap || hit;
-            }
-            if (!overlap) {
-                cut.triangles.push_back(m.triangles[t]);
-                continue;
-            }
-            const double before = area(patches[i]);
-            double after = 0.0;
+            double kept = 0.0;
             for (const Piece& q : pieces) {
-                after += area_of(q);
+                kept += area_of(q);
                 // Convex: a fan from the first corner, in the face's own winding
-                const std::uint32_t v0 = vertex(q[0]);
                 for (std::size_t k = 1; k + 1 < q.size(); ++k) {
-                    // Needles (under kNeedle tolerances high) are rounding: left out
-                    const Patch fan{{q[0], q[k], q[k + 1]}, 1.0};
-                    double longest = 0.0;
-                    for (int e = 0; e < 3; ++e)
-                        longest = std::max(longest, glm::distance(fan.p[e], fan.p[(e + 1) % 3]));
-                    if (!(2.0 * area(fan) > kNeedle * tol * longest)) continue;
-                    cut.triangles.emplace_back(v0, vertex(q[k]), vertex(q[k + 1]));
+                    if (needle({{q[0], q[k], q[k + 1]}, 1.0}, m_tol)) continue;
+                    const std::uint32_t a = vertex(q[0]), b = vertex(q[k]), c = vertex(q[k + 1]);
+                    cut.triangles.emplace_back(a, b, c);
                 }
             }
-            out.hidden_m2 += std::max(0.0, before - after);
+            out.hidden_m2 += std::max(0.0, area(m_patches[i]) - kept);
             ++out.faces_cut;
         }
-        split_at_vertices(cut, m.positions.size(), tol);
+        split_at_vertices(cut, m.positions.size(), m_tol);
         out.meshes[s] = std::move(cut);
-        first = last;
     }
-    return out;
+
+    const visdb::Scene& m_scene;
+    double m_size, m_tol, m_sliver;
+    std::vector<ContactFace> m_faces;
+    std::vector<Patch> m_patches;
+    std::vector<std::vector<std::uint32_t>> m_touching;
+    std::vector<signed char> m_solid;  // per face: −1 not known yet, 0 no solid behind, 1 solid
+};
+
+}  // namespace
+
+ContactCut hide_contacts(const visdb::Scene& scene, double size) {
+    return Cutter(scene, size).run();
 }
 
 }  // namespace abrad::radiosity
