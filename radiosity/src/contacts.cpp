@@ -53,28 +53,26 @@ struct ContactFace {
 double area_of(const Piece& p) { return glm::length(area_vector(p)); }
 
 // `piece` less triangle `u` (its unit normal `n`, its plane `piece`'s): the parts outside each
-// of u's edges in turn, convex; `overlap` set when some of `piece` lay inside u.
+// of u's edges in turn, convex; `overlap` set when some of `piece` lay inside u. A piece u
+// does not overlap stays whole (u's edge lines would cut it for nothing).
 void subtract(const Piece& piece, const glm::dvec3 (&u)[3], const glm::dvec3& n, double sliver,
               std::vector<Piece>& out, bool& overlap) {
-    // Untouched unless some of it lies inside u (u's edge lines would cut it for nothing)
-    Piece inside = piece;
-    for (int k = 0; k < 3 && !inside.empty(); ++k) {
+    Piece outside[3];
+    int parts = 0;
+    Piece rest = piece;  // ends as piece ∩ u
+    for (int k = 0; k < 3 && !rest.empty(); ++k) {
         const glm::dvec3 a = u[k], inward = glm::cross(n, u[(k + 1) % 3] - a);
-        inside = clip_polygon(inside, [&](const glm::dvec3& x) { return glm::dot(inward, x - a); });
+        const Piece part =
+            clip_polygon(rest, [&](const glm::dvec3& x) { return -glm::dot(inward, x - a); });
+        if (part.size() >= 3 && area_of(part) > sliver) outside[parts++] = part;
+        rest = clip_polygon(rest, [&](const glm::dvec3& x) { return glm::dot(inward, x - a); });
     }
-    if (inside.size() < 3 || !(area_of(inside) > sliver)) {
+    if (rest.size() < 3 || !(area_of(rest) > sliver)) {
         out.push_back(piece);
         return;
     }
     overlap = true;
-    Piece rest = piece;
-    for (int k = 0; k < 3 && !rest.empty(); ++k) {
-        const glm::dvec3 a = u[k], inward = glm::cross(n, u[(k + 1) % 3] - a);
-        const Piece outside =
-            clip_polygon(rest, [&](const glm::dvec3& x) { return -glm::dot(inward, x - a); });
-        if (outside.size() >= 3 && area_of(outside) > sliver) out.push_back(outside);
-        rest = clip_polygon(rest, [&](const glm::dvec3& x) { return glm::dot(inward, x - a); });
-    }
+    out.insert(out.end(), outside, outside + parts);
 }
 
 // Splits triangles at the vertices lying inside their edges (where a cut neighbour made
@@ -190,10 +188,11 @@ class Cutter {
                 const glm::u32vec3 tri = m.triangles[t];
                 const Patch p{{m.positions.at(tri.x), m.positions.at(tri.y), m.positions.at(tri.z)},
                               1.0};
-                const double len = glm::length(cross_normal(p));
+                const glm::dvec3 c = cross_normal(p);
+                const double len = glm::length(c);
                 if (!(len > 0.0) || !std::isfinite(len)) continue;
-                m_faces.push_back({static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(t),
-                                   cross_normal(p) / len});
+                m_faces.push_back(
+                    {static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(t), c / len});
                 m_patches.push_back(p);
             }
         }
