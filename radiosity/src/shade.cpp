@@ -99,6 +99,35 @@ std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeom
     return average_to_vertices(target, tri);
 }
 
+std::vector<visdb::Rgb> conservative_indirect(const BakeGeometry& target,
+                                              const IndirectSolution& indirect,
+                                              const std::vector<std::uint32_t>& vertex_region) {
+    const visdb::BakeMesh& mesh = target.mesh;
+    std::vector<visdb::Rgb> x(mesh.positions.size());
+    for (std::size_t v = 0; v < x.size(); ++v)
+        x[v] = indirect.at(vertex_region[v], mesh.positions[v]);
+    // Per region: the flux the solution holds (Σ H·A over its elements) and the Gouraud
+    // field's (Σ over its triangles of the area times the mean of the corners)
+    const std::size_t regions = indirect.grids.size();
+    std::vector<visdb::Rgb> solution(regions, visdb::Rgb(0.0)), gouraud(regions, visdb::Rgb(0.0));
+    for (const IndirectSolution::Element& e : indirect.elements)
+        solution[e.region] += e.indirect * e.area;
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        const glm::u32vec3 tri = mesh.triangles[t];
+        const std::uint32_t r = vertex_region[tri.x];
+        if (r < regions) gouraud[r] += target.area[t] / 3.0 * (x[tri.x] + x[tri.y] + x[tri.z]);
+    }
+    std::vector<visdb::Rgb> scale(regions, visdb::Rgb(1.0));
+    for (std::size_t r = 0; r < regions; ++r)
+        for (int c = 0; c < 3; ++c)
+            if (gouraud[r][c] > 0.0 && solution[r][c] > 0.0)
+                scale[r][c] =
+                    std::clamp(solution[r][c] / gouraud[r][c], 1.0 / kMaxFluxScale, kMaxFluxScale);
+    for (std::size_t v = 0; v < x.size(); ++v)
+        if (vertex_region[v] < regions) x[v] *= scale[vertex_region[v]];
+    return x;
+}
+
 visdb::BakeMesh shade_vertices(BakeGeometry target, const std::vector<visdb::Rgb>& direct,
                                const IndirectSolution* indirect,
                                const std::vector<std::uint32_t>& vertex_region,
@@ -109,14 +138,15 @@ visdb::BakeMesh shade_vertices(BakeGeometry target, const std::vector<visdb::Rgb
     const std::size_t n = mesh.positions.size();
     mesh.irradiance.resize(n);
     mesh.radiosity.resize(n);
+    std::vector<visdb::Rgb> reflected;
+    if (indirect) reflected = conservative_indirect(target, *indirect, vertex_region);
     double indirect_sum = 0.0;
     for (std::size_t v = 0; v < n; ++v) {
         const std::uint32_t t = target.incident[target.incident_start[v]];
         visdb::Rgb h = direct[v];
         if (indirect) {
-            const visdb::Rgb ind = indirect->at(vertex_region[v], mesh.positions[v]);
-            h += ind;
-            indirect_sum += visdb::channel_mean(ind);
+            h += reflected[v];
+            indirect_sum += visdb::channel_mean(reflected[v]);
         }
         mesh.irradiance[v] = glm::vec3(h);
         mesh.radiosity[v] = glm::vec3(target.emittance[t] + target.reflectance[t] * h);

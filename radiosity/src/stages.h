@@ -191,6 +191,15 @@ double add_flux_irradiance(const ShootResult& shot, const visdb::Rgb& flux,
                            std::vector<visdb::Rgb>& triangle_irradiance);
 
 /// Irradiance H = direct + (with `indirect`) the interpolated indirect part, and radiosity
+/// The indirect part at `target`'s vertices: the element solution's interpolated field
+/// (IndirectSolution::at) scaled, per planar region and channel, so that the Gouraud field
+/// over the region's triangles carries the flux its elements hold (Σ H·A), the scale kept
+/// within [1/kMaxFluxScale, kMaxFluxScale]. docs/algorithms.md#interreflection ("At the vertices").
+std::vector<visdb::Rgb> conservative_indirect(const BakeGeometry& target,
+                                              const IndirectSolution& indirect,
+                                              const std::vector<std::uint32_t>& vertex_region);
+constexpr double kMaxFluxScale = 1.5;
+
 /// B = E + ρH at every vertex of `target`; `vertex_region` gives each vertex's planar region
 /// for the indirect lookup. Returns target's mesh with the shades; fills
 /// stats->indirect->mean_at_vertices.

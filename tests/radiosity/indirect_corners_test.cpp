@@ -343,6 +343,50 @@ TEST(IndirectCorners, ACeilingLitOnlyByReflectionIsExportedWithItsLight) {
     EXPECT_LT(worst, 0.06);
 }
 
+// The export carries the solution's reflected flux on every face, whatever its mesh: the
+// room's faces as 3 × 3 large cells each (no discontinuity mesh). Read at those vertices
+// alone, the interpolated field's Gouraud means were 0.4-0.6 % low on the floor and walls and
+// 1.8 % on the ceiling (its field peaks between the vertices); scaled to the elements' flux,
+// 0.6 % at most. Each face's exported mean indirect irradiance (Gouraud, the vertices'
+// irradiance less their exact direct part) within 1 % of the reference's mean over the face.
+TEST(IndirectCorners, EveryFaceExportsTheFluxTheRoomReflectsOntoIt) {
+    const double rho = 0.5;
+    const visdb::Scene scene = room_scene(rho, {-2.0, -0.5, 0.5, 2.0});
+    BakeOptions options;
+    options.dm = false;
+    const visdb::Bake b = bake(scene, options);
+    const visdb::BakeMesh& m = b.mesh;
+    const DirectField direct(scene);
+    const RoomReference reference(rho, kReferenceBreaks);
+    const std::array<dvec3, 6> normals = {dvec3(0, 0, 1),  dvec3(0, 0, -1), dvec3(1, 0, 0),
+                                          dvec3(-1, 0, 0), dvec3(0, 1, 0),  dvec3(0, -1, 0)};
+    for (const dvec3& n : normals) {
+        // The face's triangles (the source's left out: it is not a reflecting room face here)
+        const auto on_face = [&](std::size_t t) {
+            const glm::u32vec3 tri = m.triangles[t];
+            const dvec3 p[3] = {m.positions[tri.x], m.positions[tri.y], m.positions[tri.z]};
+            const dvec3 c = (p[0] + p[1] + p[2]) / 3.0;
+            if (glm::dot(glm::normalize(glm::cross(p[1] - p[0], p[2] - p[0])), n) < 0.99)
+                return false;
+            return !(c.z == 4.0 && std::abs(c.x) < 0.5 && std::abs(c.y) < 0.5);
+        };
+        const double exported = area_mean(
+            m,
+            [&](std::uint32_t v) {
+                return irradiance_at(m, v) - direct.irradiance(m.positions[v], n).y;
+            },
+            on_face);
+        const double expected = reference.mean_indirect(rho, [&](const dvec3& x, const dvec3& c) {
+            return c == n && !(x.z == 4.0 && std::abs(x.x) < 0.5 && std::abs(x.y) < 0.5);
+        });
+        std::printf(
+            "face n (%+.0f, %+.0f, %+.0f): exported mean indirect %.4f, reference %.4f: "
+            "%+.2f %%\n",
+            n.x, n.y, n.z, exported, expected, 100.0 * (exported / expected - 1.0));
+        EXPECT_NEAR(exported, expected, 0.01 * expected) << "face n " << n.x << n.y << n.z;
+    }
+}
+
 // The default bake's worst errors 5 cm and 25 cm from an edge, per ρ, against the reference;
 // returns the points outside kBound.
 int measure_near_edges(std::string& table) {
