@@ -8,7 +8,9 @@
 // one room shoots that light from its point in the next, and its mean over the hidden strip
 // darkens the field interpolated into both rooms (the FZK-Haus ceiling exported 7.6 % below
 // its solution with 0.5 m elements, 1.6 % with 0.25 m). Cut away, each room's ceiling is its
-// own region, and no element spans a wall.
+// own region, and no element spans a wall. The parts of faces lying inside another closed
+// surface (a slab's strip inside an outer wall that runs on through it) are hidden too, and
+// cut away the same way (Cutter::subtract_solids).
 
 #include <tbb/parallel_for.h>
 
@@ -36,6 +38,9 @@ constexpr double kOpposite = 1.0 - 1e-6;
 constexpr double kSolidBehind = 1e-4;
 // Pieces of less than this fraction of the model's size squared are rounding, not area
 constexpr double kSliver = 1e-14;
+// A part of a face is inside a solid when the point this many tolerances in front of its
+// centre is
+constexpr double kInFront = 4.0;
 
 // The T-junction repair: triangles whose height is under this many tolerances are left as
 // they are, and an input triangle is split at most this many times (a guard: tolerances
@@ -172,7 +177,8 @@ class Cutter {
             std::size_t last = first;
             while (last < m_faces.size() && m_faces[last].surface == s) ++last;
             bool any = false;
-            for (std::size_t i = first; i < last && !any; ++i) any = !m_touching[i].empty();
+            for (std::size_t i = first; i < last && !any; ++i)
+                any = !m_touching[i].empty() || !m_crossing[i].empty();
             if (any) cut_surface(static_cast<std::uint32_t>(s), first, last, out);
             first = last;
         }
@@ -183,6 +189,7 @@ class Cutter {
     // Every face of the scene, with its patch for the BVH
     void collect() {
         for (std::size_t s = 0; s < m_scene.surfaces.size(); ++s) {
+            m_first.push_back(m_faces.size());
             const visdb::TriangleMesh& m = m_scene.surfaces[s].mesh;
             for (std::size_t t = 0; t < m.triangles.size(); ++t) {
                 const glm::u32vec3 tri = m.triangles[t];
@@ -196,6 +203,7 @@ class Cutter {
                 m_patches.push_back(p);
             }
         }
+        m_first.push_back(m_faces.size());
     }
 
     bool opaque(const ContactFace& f) const {
@@ -208,6 +216,7 @@ class Cutter {
     void find_touching() {
         const Bvh bvh(m_patches);
         m_touching.resize(m_faces.size());
+        m_crossing.resize(m_faces.size());
         tbb::parallel_for(std::size_t{0}, m_faces.size(), [&](std::size_t i) {
             const ContactFace& f = m_faces[i];
             const Patch& p = m_patches[i];
@@ -216,13 +225,140 @@ class Cutter {
             box.inflate(m_tol);
             bvh.query(box, [&](std::uint32_t j) {
                 const ContactFace& g = m_faces[j];
-                if (g.surface == f.surface || glm::dot(f.n, g.n) > -kOpposite || !opaque(g)) return;
+                if (g.surface == f.surface || !opaque(g)) return;
+                // In front of the face (beyond m_tol) or not, per corner
+                int front = 0;
+                for (const glm::dvec3& x : m_patches[j].p)
+                    front += glm::dot(f.n, x - p.p[0]) > m_tol ? 1 : 0;
+                if (front == 1 || front == 2) m_crossing[i].push_back(j);
+                if (glm::dot(f.n, g.n) > -kOpposite) return;
                 for (const glm::dvec3& x : m_patches[j].p)
                     if (std::abs(glm::dot(f.n, x - p.p[0])) > m_tol) return;
                 m_touching[i].push_back(j);
             });
             std::sort(m_touching[i].begin(), m_touching[i].end());
+            std::sort(m_crossing[i].begin(), m_crossing[i].end(),
+                      [&](std::uint32_t a, std::uint32_t b) {
+                          return m_faces[a].surface != m_faces[b].surface
+                                     ? m_faces[a].surface < m_faces[b].surface
+                                     : a < b;
+                      });
         });
+    }
+
+    // True when x lies inside surface s's solid: a ray and its opposite both cross s's faces
+    // an odd number of times (a sheet, crossed at most once by a line, fails one of them)
+    bool inside_solid(std::uint32_t s, const glm::dvec3& x) const {
+        // A direction no model edge or face is likely to hold
+        const glm::dvec3 d = glm::normalize(glm::dvec3(0.5773, 0.6191, 0.5327));
+        int forward = 0, backward = 0;
+        for (std::size_t j = m_first[s]; j < m_first[s + 1]; ++j) {
+            const glm::dvec3 *p = m_patches[j].p, e1 = p[1] - p[0], e2 = p[2] - p[0];
+            const glm::dvec3 q = glm::cross(d, e2);
+            const double det = glm::dot(e1, q);
+            if (std::abs(det) < 1e-300) continue;
+            const glm::dvec3 o = x - p[0];
+            const double a = glm::dot(o, q) / det;
+            if (a < 0.0 || a > 1.0) continue;
+            const glm::dvec3 r = glm::cross(o, e1);
+            const double b = glm::dot(d, r) / det;
+            if (b < 0.0 || a + b > 1.0) continue;
+            const double along = glm::dot(e2, r) / det;
+            (along > 0.0 ? forward : backward) += 1;
+        }
+        return forward % 2 == 1 && backward % 2 == 1;
+    }
+
+    // Where face j crosses face i's plane, in that plane: the two points where j's edges pass
+    // from in front of it (beyond m_tol) to not; false when j does not cross
+    bool crossing_segment(std::size_t i, std::uint32_t j, glm::dvec3& a, glm::dvec3& b) const {
+        const glm::dvec3& n = m_faces[i].n;
+        const glm::dvec3& o = m_patches[i].p[0];
+        const Patch& q = m_patches[j];
+        double d[3];
+        for (int k = 0; k < 3; ++k) d[k] = glm::dot(n, q.p[k] - o);
+        glm::dvec3 points[2];
+        int found = 0;
+        for (int k = 0; k < 3 && found < 2; ++k) {
+            const int l = (k + 1) % 3;
+            if ((d[k] > m_tol) == (d[l] > m_tol)) continue;
+            const double s = std::clamp(d[k] / (d[k] - d[l]), 0.0, 1.0);
+            const glm::dvec3 x = q.p[k] + s * (q.p[l] - q.p[k]);
+            points[found++] = x - glm::dot(n, x - o) * n;
+        }
+        if (found < 2 || glm::distance(points[0], points[1]) <= m_tol) return false;
+        a = points[0];
+        b = points[1];
+        return true;
+    }
+
+    // Convex `piece` (wound about n) split by segment a–b where the segment runs through it
+    void split_by(const Piece& piece, const glm::dvec3& n, const glm::dvec3& a, const glm::dvec3& b,
+                  std::vector<Piece>& out) const {
+        // The segment clipped to the piece: its parameter range inside every edge
+        double lo = 0.0, hi = 1.0;
+        for (std::size_t k = 0; k < piece.size() && lo < hi; ++k) {
+            const glm::dvec3 p0 = piece[k],
+                             inward = glm::cross(n, piece[(k + 1) % piece.size()] - p0);
+            const double fa = glm::dot(inward, a - p0), fb = glm::dot(inward, b - p0);
+            if (fa < 0.0 && fb < 0.0)
+                hi = lo;
+            else if (fa < 0.0)
+                lo = std::max(lo, fa / (fa - fb));
+            else if (fb < 0.0)
+                hi = std::min(hi, fa / (fa - fb));
+        }
+        if (!((hi - lo) * glm::distance(a, b) > m_tol)) {
+            out.push_back(piece);
+            return;
+        }
+        const glm::dvec3 side = glm::cross(n, b - a);
+        const Piece left =
+            clip_polygon(piece, [&](const glm::dvec3& x) { return glm::dot(side, x - a); });
+        const Piece right =
+            clip_polygon(piece, [&](const glm::dvec3& x) { return -glm::dot(side, x - a); });
+        if (left.size() < 3 || right.size() < 3 || !(area_of(left) > m_sliver) ||
+            !(area_of(right) > m_sliver)) {
+            out.push_back(piece);
+            return;
+        }
+        out.push_back(left);
+        out.push_back(right);
+    }
+
+    // `pieces` of face i less the parts lying inside other surfaces' solids (a wall running
+    // through the slab whose underside the face is): split along where each solid's faces
+    // cross the face's plane, and the parts just in front of which the solid lies dropped;
+    // true when some part was
+    bool subtract_solids(std::size_t i, std::vector<Piece>& pieces) const {
+        const glm::dvec3& n = m_faces[i].n;
+        const std::vector<std::uint32_t>& crossing = m_crossing[i];
+        bool cut = false;
+        std::vector<Piece> split, next;
+        for (std::size_t k = 0; k < crossing.size();) {
+            const std::uint32_t s = m_faces[crossing[k]].surface;
+            split = pieces;
+            for (; k < crossing.size() && m_faces[crossing[k]].surface == s; ++k) {
+                glm::dvec3 a, b;
+                if (!crossing_segment(i, crossing[k], a, b)) continue;
+                next.clear();
+                for (const Piece& q : split) split_by(q, n, a, b, next);
+                split.swap(next);
+            }
+            next.clear();
+            for (const Piece& q : split) {
+                glm::dvec3 c(0.0);
+                for (std::size_t v = 0; v < q.size(); ++v) c += q[v];
+                c /= static_cast<double>(q.size());
+                if (!inside_solid(s, c + kInFront * m_tol * n)) next.push_back(q);
+            }
+            // The solid's lines stay only where they bound a part it hides
+            if (next.size() < split.size()) {
+                pieces.swap(next);
+                cut = true;
+            }
+        }
+        return cut;
     }
 
     // A touching face hides only with a solid behind it (not a sheet's other side)
@@ -254,6 +390,7 @@ class Cutter {
             if (hit) pieces.swap(next);
             overlap = overlap || hit;
         }
+        if (!m_crossing[i].empty() && subtract_solids(i, pieces)) overlap = true;
         return overlap;
     }
 
@@ -279,7 +416,8 @@ class Cutter {
         std::vector<Piece> pieces;
         for (std::size_t t = 0; t < m.triangles.size(); ++t) {
             const std::uint32_t i = face_of[t];
-            if (i == kNoPatch || m_touching[i].empty() || !remainder(i, pieces)) {
+            if (i == kNoPatch || (m_touching[i].empty() && m_crossing[i].empty()) ||
+                !remainder(i, pieces)) {
                 cut.triangles.push_back(m.triangles[t]);
                 continue;
             }
@@ -305,6 +443,9 @@ class Cutter {
     std::vector<ContactFace> m_faces;
     std::vector<Patch> m_patches;
     std::vector<std::vector<std::uint32_t>> m_touching;
+    // Per face, the opaque faces of other surfaces crossing its plane near it, by surface
+    std::vector<std::vector<std::uint32_t>> m_crossing;
+    std::vector<std::size_t> m_first;  // per surface, its first face; one past the last at the end
     std::vector<signed char> m_solid;  // per face: −1 not known yet, 0 no solid behind, 1 solid
 };
 

@@ -58,8 +58,10 @@ inline double refine_min_edge(const BakeOptions& options, double size) {
 /// face covered by an opaque face of another surface lying in its plane (within 1e-6 of the
 /// model's size), facing it, with that surface's solid behind it (a wall's top under the slab,
 /// its foot on the floor, a cupboard's bottom). Neither face can receive or send light there.
-/// Cut faces are triangulated again from their convex remainders, and their neighbours split
-/// where the cuts put vertices on their edges (no T-junctions).
+/// Also the parts of a face lying inside another surface's closed opaque solid (a slab's strip
+/// inside an outer wall that runs through it). Cut faces are triangulated again from their convex
+/// remainders, and their neighbours split where the cuts put vertices on their edges (no
+/// T-junctions).
 struct ContactCut {
     std::vector<std::optional<visdb::TriangleMesh>> meshes;  ///< per surface; none: unchanged
     double hidden_m2 = 0.0;                                  ///< area cut away
