@@ -134,7 +134,12 @@ void split_at_vertices(visdb::TriangleMesh& m, std::size_t first_new, double tol
                 splits < kMaxSplits ? on_edge(t) : std::pair<int, std::uint32_t>{-1, 0};
             ++splits;
             if (k < 0) {
-                out.push_back(t);
+                // A split's piece may be flat (its corners on one line in floating point,
+                // where the input triangle was a near-needle): no area, left out
+                const glm::dvec3 a = m.positions[t.x];
+                if (t == input ||
+                    glm::length(glm::cross(m.positions[t.y] - a, m.positions[t.z] - a)) > 0.0)
+                    out.push_back(t);
                 continue;
             }
             // t = (a, b, c) with v inside a–b: (a, v, c) and (v, b, c)

@@ -3,7 +3,7 @@
 // the top of bake.h). Internal to the radiosity library: one file per stage.
 //
 //   build_bake_mesh     bake_mesh.cpp       the scene's triangles, split by surface and normal,
-//                       contacts.cpp        less the parts pressed against another solid
+//                       contacts.cpp        less the parts pressed against or inside another solid
 //   shoot_lights        shoot_lights.cpp    one hemicube per light: patch irradiance, exact
 //                                           vertex irradiance (no DM), shadow segments (DM)
 //   interreflect        interreflect.cpp    progressive refinement on elements (indirect.h)

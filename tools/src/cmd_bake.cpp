@@ -126,7 +126,7 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
                   << " / max " << hi << " " << b.unit << "\n";
     if (st.contact_faces_cut > 0)
         std::cout << "  hidden contacts: " << st.contact_hidden_m2 << " m2 cut from "
-                  << st.contact_faces_cut << " faces pressed against another solid\n";
+                  << st.contact_faces_cut << " faces pressed against or inside another solid\n";
     if (const auto& dm = st.dm) {
         const bool coarsened = dm->triangles_meshed > 0;
         std::cout << "  discontinuity mesh: " << dm->triangles_before << " -> "

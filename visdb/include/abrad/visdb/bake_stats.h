@@ -125,7 +125,7 @@ struct BakeStats {
     std::uint64_t triangles = 0;  ///< of the output mesh
     std::uint64_t vertices = 0;   ///< of the output mesh
     std::uint64_t degenerate_skipped = 0;
-    double contact_hidden_m2 = 0.0;       ///< faces' area pressed against another solid, cut away
+    double contact_hidden_m2 = 0.0;       ///< faces' area against or inside another solid, cut away
     std::uint64_t contact_faces_cut = 0;  ///< faces cut there
     std::uint64_t light_triangles = 0;
     double light_area_m2 = 0.0;
