@@ -286,7 +286,7 @@ TEST(IndirectCorners, ReferenceIsConverged) {
 // triangles' 16 vertices, at the corners and around the source, each the value of its nearest
 // element: the refinement looked at the direct light alone (mean −1.78 %, and 0.75 m or more
 // from the walls RMS 4.8 %, worst 10 %). Now it refines the whole field, and the exported
-// ceiling carries what the elements hold (73 vertices; −0.24 %, RMS 2.2 %, worst 5.5 %):
+// ceiling carries what the elements hold (73 vertices; −0.56 %, RMS 2.5 %, worst 5.8 %):
 // its mean within 1 % of the reference's (the Gouraud field integrated over the triangles),
 // RMS under 3 % and every point within 6 %.
 TEST(IndirectCorners, ACeilingLitOnlyByReflectionIsExportedWithItsLight) {
