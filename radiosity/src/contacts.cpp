@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "abrad/radiosity/direct.h"
 #include "abrad/radiosity/polygon.h"
 #include "stages.h"
 
@@ -231,45 +232,32 @@ class Cutter {
             bvh.query(box, [&](std::uint32_t j) {
                 const ContactFace& g = m_faces[j];
                 if (g.surface == f.surface || !opaque(g)) return;
-                // In front of the face (beyond m_tol) or not, per corner
-                int front = 0;
-                for (const glm::dvec3& x : m_patches[j].p)
-                    front += glm::dot(f.n, x - p.p[0]) > m_tol ? 1 : 0;
+                // Per corner of g: in front of f's plane (beyond m_tol), or on it (within m_tol)
+                int front = 0, on = 0;
+                for (const glm::dvec3& x : m_patches[j].p) {
+                    const double d = glm::dot(f.n, x - p.p[0]);
+                    front += d > m_tol ? 1 : 0;
+                    on += std::abs(d) <= m_tol ? 1 : 0;
+                }
                 if (front == 1 || front == 2) m_crossing[i].push_back(j);
-                if (glm::dot(f.n, g.n) > -kOpposite) return;
-                for (const glm::dvec3& x : m_patches[j].p)
-                    if (std::abs(glm::dot(f.n, x - p.p[0])) > m_tol) return;
-                m_touching[i].push_back(j);
+                if (on == 3 && glm::dot(f.n, g.n) <= -kOpposite) m_touching[i].push_back(j);
             });
+            // Ascending, and so by surface: faces are collected in surface order
             std::sort(m_touching[i].begin(), m_touching[i].end());
-            std::sort(m_crossing[i].begin(), m_crossing[i].end(),
-                      [&](std::uint32_t a, std::uint32_t b) {
-                          return m_faces[a].surface != m_faces[b].surface
-                                     ? m_faces[a].surface < m_faces[b].surface
-                                     : a < b;
-                      });
+            std::sort(m_crossing[i].begin(), m_crossing[i].end());
         });
     }
 
-    // True when x lies inside surface s's solid: a ray and its opposite both cross s's faces
-    // an odd number of times (a sheet, crossed at most once by a line, fails one of them)
+    // True when x lies inside surface s's solid: the line through x crosses s's faces an odd
+    // number of times on either side of x (a sheet, crossed at most once by a line, fails one
+    // of them). The line's segment reaches past the model on both sides.
     bool inside_solid(std::uint32_t s, const glm::dvec3& x) const {
         // A direction no model edge or face is likely to hold
-        const glm::dvec3 d = glm::normalize(glm::dvec3(0.5773, 0.6191, 0.5327));
+        const glm::dvec3 d = 2.0 * m_size * glm::normalize(glm::dvec3(0.5773, 0.6191, 0.5327));
         int forward = 0, backward = 0;
         for (std::size_t j = m_first[s]; j < m_first[s + 1]; ++j) {
-            const glm::dvec3 *p = m_patches[j].p, e1 = p[1] - p[0], e2 = p[2] - p[0];
-            const glm::dvec3 q = glm::cross(d, e2);
-            const double det = glm::dot(e1, q);
-            if (std::abs(det) < 1e-300) continue;
-            const glm::dvec3 o = x - p[0];
-            const double a = glm::dot(o, q) / det;
-            if (a < 0.0 || a > 1.0) continue;
-            const glm::dvec3 r = glm::cross(o, e1);
-            const double b = glm::dot(d, r) / det;
-            if (b < 0.0 || a + b > 1.0) continue;
-            const double along = glm::dot(e2, r) / det;
-            (along > 0.0 ? forward : backward) += 1;
+            const double t = segment_crossing(m_patches[j], x - d, x + d);
+            if (t >= 0.0) (t > 0.5 ? forward : backward) += 1;
         }
         return forward % 2 == 1 && backward % 2 == 1;
     }
