@@ -44,6 +44,8 @@ std::vector<std::pair<std::string, std::string>> parameters_of(const BakeOptions
         }
         p.emplace_back("element_size", std::to_string(o.element_size));
         p.emplace_back("element_resolution", std::to_string(o.element_resolution));
+        if (o.method == Visibility::ABuffer)
+            p.emplace_back("element_subpixels", std::to_string(o.element_subpixels));
         p.emplace_back("shooter_cells", std::to_string(o.shooter_cells));
     }
     if (o.dm) {
@@ -278,6 +280,9 @@ constexpr UsedWhen kUsedWhen[] = {
     {"--ambient", [](const BakeOptions& o) { return o.bounces < 0; }, "--bounces converge"},
     {"--element-resolution", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},
+    {"--element-subpixels",
+     [](const BakeOptions& o) { return o.bounces != 0 && o.method == Visibility::ABuffer; },
+     "--bounces converge or N > 0, with --method abuffer"},
     {"--element-size", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},
     {"--shooter-cells", [](const BakeOptions& o) { return o.bounces != 0; },
@@ -312,7 +317,9 @@ void validate(const BakeOptions& o) {
                              .element_size = o.element_size,
                              .shooter_cells = o.shooter_cells,
                              .overrelaxation = o.overrelaxation,
-                             .row_resolution = o.element_resolution});
+                             .method = o.method,
+                             .row_resolution = o.element_resolution,
+                             .row_subpixels = o.element_subpixels});
     if (!(o.reach >= 0.0 && o.reach < 1e7))
         throw InputError("--reach must be >= 0 metres (0 = unlimited), got " +
                          std::to_string(o.reach));

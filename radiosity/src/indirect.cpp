@@ -287,6 +287,10 @@ void validate(const IndirectOptions& o) {
     if (o.row_resolution < 2 || o.row_resolution > 4096 || o.row_resolution % 2 != 0)
         throw InputError("--element-resolution must be an even number in [2, 4096], got " +
                          std::to_string(o.row_resolution));
+    if (o.method == Visibility::ABuffer && o.row_subpixels != 4 && o.row_subpixels != 8 &&
+        o.row_subpixels != 16)
+        throw InputError("--element-subpixels must be 4, 8 or 16, got " +
+                         std::to_string(o.row_subpixels));
     if (o.shooter_cells < 1 || o.shooter_cells > 16)
         throw InputError("--shooter-cells must be in [1, 16], got " +
                          std::to_string(o.shooter_cells));
@@ -358,6 +362,7 @@ class Solver {
         // The lights' shots onto the elements keep the finer masks; a row's form factors are
         // sums over many pixels, where one translucent sample per undersampled piece does
         m_shoot.fine_masks = m_options.row_fine_masks;
+        m_shoot.subpixels = m_options.row_subpixels;
         m_r.resize(m_ne);
         m_B.assign(m_ne, visdb::Rgb(0.0));
         for (std::size_t e = 0; e < m_ne; ++e) m_r[e] = m_sol.elements[e].reflectance * m_H[e];

@@ -34,6 +34,7 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
                              .resolution = options.resolution,
                              .row_resolution = options.element_resolution,
                              .subpixels = options.subpixels,
+                             .row_subpixels = options.element_subpixels,
                              .cluster = options.cluster};
     IndirectSolution s = solve_indirect(input, io, progress);
     if (options.convergence) *options.convergence = s.curve;

@@ -165,6 +165,7 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     EXPECT_NE(message_of(o, "--overrelax"), "");
     EXPECT_NE(message_of(o, "--element-size"), "");
     EXPECT_NE(message_of(o, "--element-resolution"), "");
+    EXPECT_NE(message_of(o, "--element-subpixels"), "");
     EXPECT_NE(message_of(o, "--shooter-cells"), "");
     EXPECT_EQ(message_of(o, "--subpixels"), "");
     EXPECT_EQ(message_of(o, "--lights"), "");
@@ -182,6 +183,7 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     o = {};
     o.method = Visibility::ZBuffer;
     EXPECT_NE(message_of(o, "--subpixels").find("--method abuffer"), std::string::npos);
+    EXPECT_NE(message_of(o, "--element-subpixels").find("--method abuffer"), std::string::npos);
     o = {};
     o.dm = false;
     for (const char* dm_only :

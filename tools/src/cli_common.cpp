@@ -127,6 +127,10 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
                    "Hemicube resolution of the interreflection's element rows (even, 2..4096; "
                    "the lights' shots use --resolution)")
         ->capture_default_str();
+    app.add_option("--element-subpixels", a.element_subpixels,
+                   "A-buffer mask side of the element rows: 4, 8 or 16 (the lights' shots use "
+                   "--subpixels)")
+        ->capture_default_str();
     app.add_option("--shooter-cells", a.shooter_cells,
                    "Interreflection elements shoot in groups of N x N cells of a surface "
                    "(small faces grouped in cubes of that side), one hemicube per group "
@@ -212,6 +216,7 @@ radiosity::BakeOptions to_options(const BakeArgs& a, const CLI::App& app) {
     o.converge = a.converge;
     o.element_size = a.element_size;
     o.element_resolution = a.element_resolution;
+    o.element_subpixels = a.element_subpixels;
     o.shooter_cells = a.shooter_cells;
     o.overrelaxation = a.overrelax;
     o.ambient = a.ambient == "on";

@@ -88,6 +88,7 @@ struct BakeArgs {
     double converge = kBakeDefaults.converge;
     double element_size = kBakeDefaults.element_size;
     int element_resolution = kBakeDefaults.element_resolution;
+    int element_subpixels = kBakeDefaults.element_subpixels;
     int shooter_cells = kBakeDefaults.shooter_cells;
     double overrelax = kBakeDefaults.overrelaxation;
     std::string ambient = "on";

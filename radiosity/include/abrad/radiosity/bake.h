@@ -66,7 +66,9 @@ struct BakeOptions {
     double element_size = 0.5;  ///< metres: element grid of the interreflection solution
     /// Hemicube resolution of the element rows (the lights' shots onto the elements use
     /// `resolution`): element-to-element form factors are sums over many pixels.
-    int element_resolution = 32;
+    int element_resolution = 40;
+    /// A-buffer mask side of the element rows (4, 8 or 16; the lights' shots use `subpixels`).
+    int element_subpixels = 4;
     /// Elements shoot in groups of shooter_cells × shooter_cells cells (1 = alone).
     int shooter_cells = 2;
     double overrelaxation = 1.0;  ///< Southwell ω in [1, 2) when converging

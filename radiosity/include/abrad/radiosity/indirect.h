@@ -84,7 +84,11 @@ struct IndirectOptions {
     /// Undersampled pieces in the rows' hemicubes get finer masks (ShootOptions::fine_masks);
     /// false: one translucent sample each, as accurate for a row's sums and a quarter cheaper
     bool row_fine_masks = false;
-    int subpixels = 8;
+    int subpixels = 8;  ///< A-buffer mask side of the lights' shots onto the elements
+    /// A-buffer mask side of the elements' rows: 4 × 4 samples a pixel. A row's form factors
+    /// are sums over many pixels, where the coarser masks cost little accuracy and a sixth of
+    /// the interreflection's time (docs/algorithms.md#interreflection)
+    int row_subpixels = 4;
     /// When set, the MPI ranks that share the solve (cluster.h): every rank calls
     /// solve_indirect with the same input; each computes its share of the hemicubes (the
     /// lights' and the shooters' rows, split by measured cost) and receives the others', so
