@@ -306,8 +306,7 @@ void validate(const BakeOptions& o) {
     if (o.resolution < 2 || o.resolution > 4096 || o.resolution % 2 != 0)
         throw InputError("--resolution must be an even number in [2, 4096], got " +
                          std::to_string(o.resolution));
-    if (o.method == Visibility::ABuffer && o.subpixels != 4 && o.subpixels != 8 &&
-        o.subpixels != 16)
+    if (o.method == Visibility::ABuffer && !supported_subpixels(o.subpixels))
         throw InputError("--subpixels must be 4, 8 or 16, got " + std::to_string(o.subpixels));
     if (o.bounces < -1 || o.bounces > 1000)
         throw InputError("--bounces must be in [0, 1000] (or -1: until converged), got " +

@@ -183,8 +183,7 @@ class Cutter {
             std::size_t last = first;
             while (last < m_faces.size() && m_faces[last].surface == s) ++last;
             bool any = false;
-            for (std::size_t i = first; i < last && !any; ++i)
-                any = !m_touching[i].empty() || !m_crossing[i].empty();
+            for (std::size_t i = first; i < last && !any; ++i) any = may_cut(i);
             if (any) cut_surface(static_cast<std::uint32_t>(s), first, last, out);
             first = last;
         }
@@ -354,6 +353,9 @@ class Cutter {
         return cut;
     }
 
+    // Face i has faces of other surfaces touching it or crossing its plane: it may be cut
+    bool may_cut(std::size_t i) const { return !m_touching[i].empty() || !m_crossing[i].empty(); }
+
     // A touching face hides only with a solid behind it (not a sheet's other side)
     bool solid_behind(std::uint32_t j) {
         if (m_solid[j] < 0) {
@@ -409,8 +411,7 @@ class Cutter {
         std::vector<Piece> pieces;
         for (std::size_t t = 0; t < m.triangles.size(); ++t) {
             const std::uint32_t i = face_of[t];
-            if (i == kNoPatch || (m_touching[i].empty() && m_crossing[i].empty()) ||
-                !remainder(i, pieces)) {
+            if (i == kNoPatch || !may_cut(i) || !remainder(i, pieces)) {
                 cut.triangles.push_back(m.triangles[t]);
                 continue;
             }

@@ -287,8 +287,7 @@ void validate(const IndirectOptions& o) {
     if (o.row_resolution < 2 || o.row_resolution > 4096 || o.row_resolution % 2 != 0)
         throw InputError("--element-resolution must be an even number in [2, 4096], got " +
                          std::to_string(o.row_resolution));
-    if (o.method == Visibility::ABuffer && o.row_subpixels != 4 && o.row_subpixels != 8 &&
-        o.row_subpixels != 16)
+    if (o.method == Visibility::ABuffer && !supported_subpixels(o.row_subpixels))
         throw InputError("--element-subpixels must be 4, 8 or 16, got " +
                          std::to_string(o.row_subpixels));
     if (o.shooter_cells < 1 || o.shooter_cells > 16)

@@ -145,6 +145,9 @@ inline ShooterFrame frame_of(const Patch& p) {
     return ShooterFrame::at(centroid(p), unit_normal(p));
 }
 
+/// The A-buffer mask sides shoot supports (ShootOptions::subpixels): 4, 8 or 16.
+constexpr bool supported_subpixels(int s) { return s == 4 || s == 8 || s == 16; }
+
 /// Shoots from `frame` (a point and its normal) to `patches` with a hemicube of the given
 /// resolution. Patches behind the shooter's plane get nothing; every patch occludes from
 /// both sides. Throws std::invalid_argument for an unsupported `subpixels`.
