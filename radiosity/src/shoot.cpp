@@ -828,15 +828,43 @@ bool box_hidden(const ShooterFrame& frame, const Hemicube& hc, const ClosedPixel
         }
         if (dmax <= 0.0) continue;  // wholly behind this face
         const double bottom = f == kTop ? -1.0 : 0.0;
+        double near = dmin;
+        if (dmin <= 0.0) {
+            // Through this face the box shows only its points in the face's frustum, |x| <= z
+            // and bottom·z <= y <= z: their depth is at least the least |x| (and y) of the
+            // box, and each projects between its x (y) range over that depth and dmax. So a
+            // box beside the shooter, reaching behind the face's near plane, is still culled
+            // where the face is closed (the rooms along a floor's axes through the shooter)
+            double xlo = kInf, xhi = -kInf, ylo = kInf, yhi = -kInf;
+            for (const glm::dvec3& l : local) {
+                const glm::dvec3 q = to_face(f, l);
+                xlo = std::min(xlo, q.x);
+                xhi = std::max(xhi, q.x);
+                ylo = std::min(ylo, q.y);
+                yhi = std::max(yhi, q.y);
+            }
+            const auto least_abs = [](double lo, double hi) {
+                return lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
+            };
+            near =
+                std::max(least_abs(xlo, xhi), f == kTop ? least_abs(ylo, yhi) : std::max(ylo, 0.0));
+            if (near > dmax) continue;  // misses the frustum
+            if (near > 0.0) {
+                a0 = std::min(xlo / near, xlo / dmax);
+                a1 = std::max(xhi / near, xhi / dmax);
+                b0 = std::min(ylo / near, ylo / dmax);
+                b1 = std::max(yhi / near, yhi / dmax);
+            }
+        }
         double x0 = 0.0, x1 = hc.width(f), y0 = 0.0, y1 = hc.height(f);
-        if (dmin > 0.0) {
+        if (near > 0.0) {
             if (a1 < -1.0 || a0 > 1.0 || b1 < bottom || b0 > 1.0) continue;  // off this face
             x0 = hc.pixel_x(std::max(a0, -1.0));
             x1 = hc.pixel_x(std::min(a1, 1.0));
             y0 = hc.pixel_y(f, std::max(b0, bottom));
             y1 = hc.pixel_y(f, std::min(b1, 1.0));
         }
-        if (!closed.hidden(hc, f, x0, x1, y0, y1, std::max(dmin, 0.0))) return false;
+        if (!closed.hidden(hc, f, x0, x1, y0, y1, std::max(near, 0.0))) return false;
     }
     return true;
 }

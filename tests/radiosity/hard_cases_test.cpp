@@ -657,6 +657,48 @@ TEST(Cull, OccludersFirstChangeNoFormFactorAndVisitLess) {
     EXPECT_LT(visited_first, visited_bvh);
 }
 
+// Rooms along the axes through a floor shooter: a closed empty room (4 × 4 × 3 m) with a row of
+// small cubes beyond its +x wall, centred on the shooter's y. Every BVH node of the row reaches
+// behind the near planes of the hemicube's ±y faces; it is still culled there (the row is in
+// those faces' frustums only where they see the walls, nearer), so the walk visits the room and
+// of the row at most what shares a leaf with a wall, with the plain walk's form factors.
+TEST(Cull, ClutterOnTheShootersAxesBehindAWallIsNotVisited) {
+    std::vector<Patch> p;
+    testing::add_quad(p, {0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0});  // floor
+    testing::add_quad(p, {0, 0, 3}, {0, 4, 3}, {4, 4, 3}, {4, 0, 3});  // ceiling
+    testing::add_quad(p, {0, 0, 0}, {0, 0, 3}, {4, 0, 3}, {4, 0, 0});  // walls
+    testing::add_quad(p, {4, 0, 0}, {4, 0, 3}, {4, 4, 3}, {4, 4, 0});
+    testing::add_quad(p, {4, 4, 0}, {4, 4, 3}, {0, 4, 3}, {0, 4, 0});
+    testing::add_quad(p, {0, 4, 0}, {0, 4, 3}, {0, 0, 3}, {0, 0, 0});
+    const std::size_t room = p.size();
+    for (int i = 0; i < 40; ++i) {
+        const glm::dvec3 o{6.0 + 0.2 * i, 1.95, 1.0}, x{0.1, 0, 0}, y{0, 0.1, 0}, z{0, 0, 0.1};
+        testing::add_quad(p, o, o + y, o + x + y, o + x);
+        testing::add_quad(p, o + z, o + x + z, o + x + y + z, o + y + z);
+        testing::add_quad(p, o, o + x, o + x + z, o + z);
+        testing::add_quad(p, o + y, o + y + z, o + x + y + z, o + x + y);
+        testing::add_quad(p, o, o + z, o + y + z, o + y);
+        testing::add_quad(p, o + x, o + x + y, o + x + y + z, o + x + z);
+    }
+    const Bvh bvh(p);
+    const Occluders walls = large_occluders(p, 1.0, 2.0);
+    const ShooterFrame frame = ShooterFrame::at({2.0, 2.0, 0.0}, {0, 0, 1});
+    ShootOptions o{.occlusion = false, .sparse = true};
+    const ShootResult plain = shoot(frame, p, Hemicube(32), o);
+    o.bvh = &bvh;
+    o.occluders_first = &walls;
+    const ShootResult culled = shoot(frame, p, Hemicube(32), o);
+    ASSERT_EQ(plain.hits.size(), culled.hits.size());
+    for (std::size_t k = 0; k < plain.hits.size(); ++k) {
+        EXPECT_EQ(plain.hits[k].patch, culled.hits[k].patch);
+        EXPECT_EQ(plain.hits[k].ff, culled.hits[k].ff);
+    }
+    std::printf("patches visited: plain %zu, culled %zu (the room has %zu)\n", plain.visited,
+                culled.visited, room);
+    EXPECT_GT(plain.visited, room + 400);
+    EXPECT_LT(culled.visited, room + Bvh::kLeafMax);
+}
+
 // A light's shot with occlusion lists through the culling walk (ShootOptions::cull_listed):
 // the same form factors bit for bit as the plain walk over every patch, fewer patches drawn,
 // and lists that are part of the plain walk's (what the walk culled has no pairs). The room of
