@@ -582,6 +582,27 @@ TEST(HardCases, AClosedEmitterDoesNotShadowItself) {
 // ---------------------------------------------------------------------------------------
 // Culling
 
+// The culling tests' closed room, 4 × 4 × 3 m, one quad per face, facing in.
+void add_closed_room(std::vector<Patch>& p) {
+    testing::add_quad(p, {0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0});  // floor
+    testing::add_quad(p, {0, 0, 3}, {0, 4, 3}, {4, 4, 3}, {4, 0, 3});  // ceiling
+    testing::add_quad(p, {0, 0, 0}, {0, 0, 3}, {4, 0, 3}, {4, 0, 0});  // walls
+    testing::add_quad(p, {4, 0, 0}, {4, 0, 3}, {4, 4, 3}, {4, 4, 0});
+    testing::add_quad(p, {4, 4, 0}, {4, 4, 3}, {0, 4, 3}, {0, 4, 0});
+    testing::add_quad(p, {0, 4, 0}, {0, 4, 3}, {0, 0, 3}, {0, 0, 0});
+}
+
+// An axis-aligned cube of side s with its lowest corner at o, facing out.
+void add_cube(std::vector<Patch>& p, const glm::dvec3& o, double s) {
+    const glm::dvec3 x{s, 0, 0}, y{0, s, 0}, z{0, 0, s};
+    testing::add_quad(p, o, o + y, o + x + y, o + x);
+    testing::add_quad(p, o + z, o + x + z, o + x + y + z, o + y + z);
+    testing::add_quad(p, o, o + x, o + x + z, o + z);
+    testing::add_quad(p, o + y, o + y + z, o + x + y + z, o + x + y);
+    testing::add_quad(p, o, o + z, o + y + z, o + y);
+    testing::add_quad(p, o + x, o + x + y, o + x + y + z, o + x + z);
+}
+
 TEST(Cull, CandidatesAreThePatchesInFrontWithinReach) {
     std::vector<Patch> patches;
     const Patch light{{{-0.5, -0.5, 1.5}, {-0.5, 0.5, 1.5}, {0.5, 0.5, 1.5}}, 1.0};  // faces down
@@ -604,27 +625,12 @@ TEST(Cull, CandidatesAreThePatchesInFrontWithinReach) {
 // rasterized first) gives the plain walk's form factors bit for bit and visits less.
 TEST(Cull, OccludersFirstChangeNoFormFactorAndVisitLess) {
     std::vector<Patch> p;
-    using V = glm::dvec3;
-    testing::add_quad(p, {0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0});  // floor
-    testing::add_quad(p, {0, 0, 3}, {0, 4, 3}, {4, 4, 3}, {4, 0, 3});  // ceiling
-    testing::add_quad(p, {0, 0, 0}, {0, 0, 3}, {4, 0, 3}, {4, 0, 0});  // walls
-    testing::add_quad(p, {4, 0, 0}, {4, 0, 3}, {4, 4, 3}, {4, 4, 0});
-    testing::add_quad(p, {4, 4, 0}, {4, 4, 3}, {0, 4, 3}, {0, 4, 0});
-    testing::add_quad(p, {0, 4, 0}, {0, 4, 3}, {0, 0, 3}, {0, 0, 0});
+    add_closed_room(p);
     testing::add_quad(p, {1, 1, 1}, {3, 1, 1}, {3, 1, 2}, {1, 1, 2}, 0.3);  // translucent pane
-    const auto cube = [&](const V& o, double s) {
-        const V x{s, 0, 0}, y{0, s, 0}, z{0, 0, s};
-        testing::add_quad(p, o, o + y, o + x + y, o + x);
-        testing::add_quad(p, o + z, o + x + z, o + x + y + z, o + y + z);
-        testing::add_quad(p, o, o + x, o + x + z, o + z);
-        testing::add_quad(p, o + y, o + y + z, o + x + y + z, o + x + y);
-        testing::add_quad(p, o, o + z, o + y + z, o + y);
-        testing::add_quad(p, o + x, o + x + y, o + x + y + z, o + x + z);
-    };
     for (int i = 0; i < 6; ++i)
         for (int j = 0; j < 6; ++j) {
-            cube({0.3 + 0.6 * i, 0.3 + 0.6 * j, 0.5 + 0.3 * ((i + j) % 3)}, 0.08);  // inside
-            cube({6.0 + 0.6 * i, 0.3 + 0.6 * j, 1.0}, 0.2);                         // outside
+            add_cube(p, {0.3 + 0.6 * i, 0.3 + 0.6 * j, 0.5 + 0.3 * ((i + j) % 3)}, 0.08);  // in
+            add_cube(p, {6.0 + 0.6 * i, 0.3 + 0.6 * j, 1.0}, 0.2);  // outside
         }
     const Bvh bvh(p);
     const Occluders walls = large_occluders(p, 1.0, 2.0);
@@ -664,22 +670,9 @@ TEST(Cull, OccludersFirstChangeNoFormFactorAndVisitLess) {
 // of the row at most what shares a leaf with a wall, with the plain walk's form factors.
 TEST(Cull, ClutterOnTheShootersAxesBehindAWallIsNotVisited) {
     std::vector<Patch> p;
-    testing::add_quad(p, {0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0});  // floor
-    testing::add_quad(p, {0, 0, 3}, {0, 4, 3}, {4, 4, 3}, {4, 0, 3});  // ceiling
-    testing::add_quad(p, {0, 0, 0}, {0, 0, 3}, {4, 0, 3}, {4, 0, 0});  // walls
-    testing::add_quad(p, {4, 0, 0}, {4, 0, 3}, {4, 4, 3}, {4, 4, 0});
-    testing::add_quad(p, {4, 4, 0}, {4, 4, 3}, {0, 4, 3}, {0, 4, 0});
-    testing::add_quad(p, {0, 4, 0}, {0, 4, 3}, {0, 0, 3}, {0, 0, 0});
+    add_closed_room(p);
     const std::size_t room = p.size();
-    for (int i = 0; i < 40; ++i) {
-        const glm::dvec3 o{6.0 + 0.2 * i, 1.95, 1.0}, x{0.1, 0, 0}, y{0, 0.1, 0}, z{0, 0, 0.1};
-        testing::add_quad(p, o, o + y, o + x + y, o + x);
-        testing::add_quad(p, o + z, o + x + z, o + x + y + z, o + y + z);
-        testing::add_quad(p, o, o + x, o + x + z, o + z);
-        testing::add_quad(p, o + y, o + y + z, o + x + y + z, o + x + y);
-        testing::add_quad(p, o, o + z, o + y + z, o + y);
-        testing::add_quad(p, o + x, o + x + y, o + x + y + z, o + x + z);
-    }
+    for (int i = 0; i < 40; ++i) add_cube(p, {6.0 + 0.2 * i, 1.95, 1.0}, 0.1);
     const Bvh bvh(p);
     const Occluders walls = large_occluders(p, 1.0, 2.0);
     const ShooterFrame frame = ShooterFrame::at({2.0, 2.0, 0.0}, {0, 0, 1});
