@@ -69,18 +69,16 @@ std::vector<Box> boxes_of(std::span<const Patch> patches) {
 
 }  // namespace
 
-Bvh::Bvh(std::span<const Patch> patches, std::uint32_t leaf_max)
-    : Bvh(boxes_of(patches), leaf_max) {}
+Bvh::Bvh(std::span<const Patch> patches) : Bvh(boxes_of(patches)) {}
 
-Bvh::Bvh(std::vector<Box> boxes, std::uint32_t leaf_max)
-    : m_boxes(std::move(boxes)), m_leaf_max(std::max(leaf_max, 1u)) {
+Bvh::Bvh(std::vector<Box> boxes) : m_boxes(std::move(boxes)) {
     const std::size_t n = m_boxes.size();
     m_centres.resize(n);
     for (std::size_t i = 0; i < n; ++i) m_centres[i] = 0.5 * (m_boxes[i].lo + m_boxes[i].hi);
     m_order.resize(n);
     std::iota(m_order.begin(), m_order.end(), 0u);
     if (n > 0) {
-        m_nodes.reserve(4 * n / m_leaf_max + 2);  // leaves hold m_leaf_max / 2 or more
+        m_nodes.reserve(4 * n / kLeafMax + 2);  // leaves hold kLeafMax / 2 or more
         m_nodes.emplace_back();
         build(0, 0, static_cast<std::uint32_t>(n), 0);
     }
@@ -97,7 +95,7 @@ void Bvh::build(std::uint32_t self, std::uint32_t begin, std::uint32_t end, int 
     // A leaf: few items, or centres that cannot be split (all the same); depth is bounded so
     // the query stack (64) never overflows
     const glm::dvec3 ext = centres.hi - centres.lo;
-    if (end - begin <= m_leaf_max || std::max({ext.x, ext.y, ext.z}) <= 0.0 || depth >= 48) {
+    if (end - begin <= kLeafMax || std::max({ext.x, ext.y, ext.z}) <= 0.0 || depth >= 48) {
         m_nodes[self].first = begin;
         m_nodes[self].count = end - begin;
         return;

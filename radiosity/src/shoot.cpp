@@ -815,10 +815,15 @@ bool box_hidden(const ShooterFrame& frame, const Hemicube& hc, const ClosedPixel
     constexpr double kInf = std::numeric_limits<double>::infinity();
     for (int f = 0; f < kFaceCount; ++f) {
         double a0 = kInf, a1 = -kInf, b0 = kInf, b1 = -kInf, dmin = kInf, dmax = -kInf;
+        double xlo = kInf, xhi = -kInf, ylo = kInf, yhi = -kInf;
         for (const glm::dvec3& l : local) {
             const glm::dvec3 q = to_face(f, l);
             dmin = std::min(dmin, q.z);
             dmax = std::max(dmax, q.z);
+            xlo = std::min(xlo, q.x);
+            xhi = std::max(xhi, q.x);
+            ylo = std::min(ylo, q.y);
+            yhi = std::max(yhi, q.y);
             if (q.z > 0.0) {
                 a0 = std::min(a0, q.x / q.z);
                 a1 = std::max(a1, q.x / q.z);
@@ -835,14 +840,6 @@ bool box_hidden(const ShooterFrame& frame, const Hemicube& hc, const ClosedPixel
             // box, and each projects between its x (y) range over that depth and dmax. So a
             // box beside the shooter, reaching behind the face's near plane, is still culled
             // where the face is closed (the rooms along a floor's axes through the shooter)
-            double xlo = kInf, xhi = -kInf, ylo = kInf, yhi = -kInf;
-            for (const glm::dvec3& l : local) {
-                const glm::dvec3 q = to_face(f, l);
-                xlo = std::min(xlo, q.x);
-                xhi = std::max(xhi, q.x);
-                ylo = std::min(ylo, q.y);
-                yhi = std::max(yhi, q.y);
-            }
             const auto least_abs = [](double lo, double hi) {
                 return lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
             };

@@ -62,20 +62,20 @@ class Hull {
     int m_count = 0;
 };
 
-/// A static BVH over boxes; leaves hold up to `leaf_max` items (or items whose box centres
+/// A static BVH over boxes; leaves hold up to kLeafMax items (or items whose box centres
 /// coincide).
 class Bvh {
   public:
-    /// Items in a leaf at most, by default. Small leaves cull finely but cost a node visit (a box
+    /// Items in a leaf at most. Small leaves cull finely but cost a node visit (a box
     /// test and a stack push) for every few items; 32 measured fastest on the FZK-Haus default
     /// bake (8.5 % less CPU than 4, 3 % less than 16; 64 was 3 % slower again): testing a few
     /// dozen items costs less than walking the subtree that would sort them.
     static constexpr std::uint32_t kLeafMax = 32;
 
     /// Over the patches' bounding boxes: items are patch indices.
-    explicit Bvh(std::span<const Patch> patches, std::uint32_t leaf_max = kLeafMax);
+    explicit Bvh(std::span<const Patch> patches);
     /// Over `boxes`: items are indices into it.
-    explicit Bvh(std::vector<Box> boxes, std::uint32_t leaf_max = kLeafMax);
+    explicit Bvh(std::vector<Box> boxes);
 
     /// Item `id`'s box.
     const Box& box(std::uint32_t id) const { return m_boxes[id]; }
@@ -162,7 +162,6 @@ class Bvh {
     std::vector<glm::dvec3> m_centres;
     std::vector<std::uint32_t> m_order;
     std::vector<Node> m_nodes;
-    std::uint32_t m_leaf_max;
 };
 
 }  // namespace abrad::radiosity
