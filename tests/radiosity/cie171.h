@@ -23,7 +23,7 @@ using glm::dvec3;
 constexpr double kPi = std::numbers::pi;
 constexpr double kPublished = 0.05;  ///< the tolerance per point of published validations
 /// What abrad's default export is held to at every point (issue 18), unless a point is given a
-/// tighter tolerance of its own or is marked as a known defect
+/// tighter tolerance of its own
 constexpr double kTarget = 0.02;
 constexpr double kM = 1000.0;  ///< exitance of the 5.3, 5.6 and 5.7 emitters, W/m²
 
@@ -87,16 +87,13 @@ inline std::uint32_t add_material(visdb::Scene& s, const std::string& name, doub
 }
 
 /// A point with its reference and its tolerances (relative): the probe's, and the export's
-/// tight one where abrad reaches one stably (0: kTarget). `defect` names a known defect of the
-/// default export at this point: its export is held to the published 5 % only, and the defect's
-/// own test says how far it is from kTarget.
+/// tight one where abrad reaches one stably (0: kTarget).
 struct Point {
     std::string name;
     ProbePoint p;
     double reference;
     double probe_tolerance = 1e-4;
     double export_tight = 0.0;
-    const char* defect = nullptr;
 };
 
 // ---- 5.6: an opaque obstruction between the source and the points ----
@@ -118,15 +115,8 @@ inline visdb::Scene obstruction_scene() {
     return s;
 }
 
-/// The default export in the penumbra's dark end, 5 cm from the umbra: the refinement does not
-/// split edges shorter than --refine-min-edge (5 cm here) nor where the departure is under half
-/// the tolerance of the floor's mean irradiance, and the few lux left there (a twelfth of the
-/// penumbra's middle) are interpolated from vertices 5 cm apart.
-constexpr const char* kRefinementInThePenumbra =
-    "5.6: export between refined vertices in the penumbra";
-
 /// The 5.6 points: floor points across the penumbra (y = 0 and 0.3 m) and one fully lit, with
-/// their closed-form references; the points of the known defect marked.
+/// their closed-form references.
 inline std::vector<Point> obstruction_points() {
     std::vector<Point> points;
     for (const double y0 : {0.0, 0.3})
@@ -136,7 +126,6 @@ inline std::vector<Point> obstruction_points() {
             points.push_back({label("floor", x0, y0),
                               {x, n},
                               kM * lambert_ff(x, n, rect_z(lo, 0.5, -0.5, 0.5, 3))});
-            if (x0 == -0.45) points.back().defect = kRefinementInThePenumbra;  // +3–4 %
         }
     return points;
 }

@@ -71,50 +71,24 @@ std::vector<Row> measure(const char* title, const visdb::Scene& scene, const vis
         const double probe = (h[i].x + h[i].y + h[i].z) / 3.0;
         const double exported = gouraud_at(b, p.p.x, p.p.n).value_or(std::nan(""));
         rows.push_back({&p, probe, exported});
-        std::printf("| %s | %.4f | %.4f | %+.5f %% | %.4f | %+.3f %% |%s\n", p.name.c_str(),
+        std::printf("| %s | %.4f | %.4f | %+.5f %% | %.4f | %+.3f %% |\n", p.name.c_str(),
                     p.reference, probe, 100.0 * rel_error(probe, p.reference), exported,
-                    100.0 * rel_error(exported, p.reference), p.defect ? " known defect" : "");
+                    100.0 * rel_error(exported, p.reference));
     }
     return rows;
 }
 
 // The checks of a case: every probe value within its tolerance; every exported value (off
-// the mesh: none) within the published 5 % and within kTarget or its own tighter tolerance,
-// but at the points of a known defect, which are left to the defect's own test for kTarget.
+// the mesh: none) within the published 5 % and within kTarget or its own tighter tolerance.
 void check(const std::vector<Row>& rows) {
     for (const Row& r : rows) {
         const Point& p = *r.point;
         EXPECT_NEAR(r.probe, p.reference, p.probe_tolerance * p.reference) << p.name;
         if (std::isnan(r.exported)) continue;
         EXPECT_NEAR(r.exported, p.reference, kPublished * p.reference) << p.name;
-        if (p.defect) continue;
         const double tight = p.export_tight > 0.0 ? p.export_tight : kTarget;
         EXPECT_NEAR(r.exported, p.reference, tight * p.reference) << p.name;
     }
-}
-
-// A known defect's test: skipped, with the measured errors, while the default export misses
-// kTarget at its points (check holds them to the published 5 %); failed once it meets it
-// (then drop the point's mark).
-void expect_known_defect(const std::vector<Row>& rows, const char* defect) {
-    std::string missed;
-    for (const Row& r : rows) {
-        const Point& p = *r.point;
-        if (!p.defect || std::string(p.defect) != defect) continue;
-        const double e = rel_error(r.exported, p.reference);
-        if (std::abs(e) <= kTarget) {
-            ADD_FAILURE() << p.name << ": the export is within " << 100.0 * kTarget << " % ("
-                          << 100.0 * e << " %): the defect is fixed there, drop the point's mark";
-            continue;
-        }
-        char s[96];
-        std::snprintf(s, sizeof s, "%s%s %+.2f %%", missed.empty() ? "" : ", ", p.name.c_str(),
-                      100.0 * e);
-        missed += s;
-    }
-    if (!missed.empty())
-        GTEST_SKIP() << defect << ": the default export misses " << 100.0 * kTarget << " % at "
-                     << missed;
 }
 
 // ---- The references' own check ----
@@ -383,13 +357,6 @@ TEST(Cie171, Case56Obstruction) {
     const std::vector<ProbePoint> umbra = {{{-0.8, 0.0, 0.0}, {0, 0, 1}}};
     EXPECT_EQ(PointIrradiance(scene, &b).at(umbra)[0].y, 0.0);
     EXPECT_LT(gouraud_at(b, umbra[0].x, umbra[0].n).value_or(1.0), 1e-6 * kM);
-}
-
-TEST(Cie171, KnownDefectCase56ExportBetweenRefinedVerticesInThePenumbra) {
-    const visdb::Scene scene = obstruction_scene();
-    const std::vector<Point> points = obstruction_points();
-    expect_known_defect(measure("5.6 obstruction", scene, bake(scene, BakeOptions{}), points),
-                        kRefinementInThePenumbra);
 }
 
 // ---- 5.7: diffuse reflection with an obstruction ----
