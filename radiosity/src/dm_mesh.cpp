@@ -500,8 +500,14 @@ double copy_for_refinement(
     }
     std::vector<std::uint32_t> order(v1.size());
     for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::uint32_t a, std::uint32_t b) { return rank[a] < rank[b]; });
+    // Input vertices first, then boundary vertices, each by position: not in the first CDT's
+    // order, which follows the heap
+    std::vector<Vec2> at(v1.size());
+    for (std::size_t i = 0; i < v1.size(); ++i)
+        at[i] = {CGAL::to_double(v1[i]->point().x()), CGAL::to_double(v1[i]->point().y())};
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return std::tuple(rank[a], at[a].x, at[a].y) < std::tuple(rank[b], at[b].x, at[b].y);
+    });
     const double scale = std::max(1e-300, glm::length(bounds.hi - bounds.lo));
     const double eps = std::max(h, 1e-10 * scale);
 
@@ -511,7 +517,7 @@ double copy_for_refinement(
     std::vector<Cdt1::Vertex_handle> rep_vertex;
     PointGrid grid(eps);
     for (const std::uint32_t i : order) {
-        const Vec2 p{CGAL::to_double(v1[i]->point().x()), CGAL::to_double(v1[i]->point().y())};
+        const Vec2 p = at[i];
         std::uint32_t best = kNone;
         double best_d = eps;
         if (rank[i] > 0) {
@@ -545,16 +551,24 @@ double copy_for_refinement(
     }
 
     // Constrained edges between representatives, routed through the ones within eps; an
-    // edge toggles when an odd number of toggling first-CDT edges lie along it
-    std::vector<std::array<std::uint32_t, 2>> edges;
-    std::vector<char> toggling;
+    // edge toggles when an odd number of toggling first-CDT edges lie along it. The edges go
+    // in sorted, not in the first CDT's order: its faces' order in memory follows the heap (its
+    // constraint hierarchy orders vertex handles by address), and the mesher's result depends
+    // on the order the constraints go in
+    std::vector<std::tuple<std::uint32_t, std::uint32_t, char>> found;  // a, b, toggling
     for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
         if (!cdt.is_constrained(*e)) continue;
         const std::uint32_t a = index.at(e->first->vertex(cdt.cw(e->second))),
                             b = index.at(e->first->vertex(cdt.ccw(e->second)));
         if (a == b) continue;
+        found.emplace_back(std::min(a, b), std::max(a, b), toggles(e->first, e->second) ? 1 : 0);
+    }
+    std::sort(found.begin(), found.end());
+    std::vector<std::array<std::uint32_t, 2>> edges;
+    std::vector<char> toggling;
+    for (const auto& [a, b, t] : found) {
         edges.push_back({a, b});
-        toggling.push_back(toggles(e->first, e->second) ? 1 : 0);
+        toggling.push_back(t);
     }
     std::map<std::pair<std::uint32_t, std::uint32_t>, int> toggle_count;
     std::vector<std::uint32_t> source;
