@@ -79,9 +79,36 @@ struct FInfo {
     int parity = -1;
 };
 
+/// A vertex or face base with a CGAL time stamp: CGAL then orders and hashes the handles by
+/// creation instead of by address. CGAL's plain bases stamp no time (nor does
+/// Delaunay_mesh_vertex_base_2 outside a debugging build), and the exact-crossings
+/// triangulation's constraint hierarchy and the mesher's clusters keep maps keyed by vertex
+/// handles: ordered by address, the order of their work, and with co-circular points the
+/// triangulation made, followed the heap (an FZK-Haus region came out in one of two
+/// triangulations from run to run).
+template <class Base>
+class TimeStamped : public Base {
+  public:
+    using Base::Base;
+    template <typename Tds>
+    struct Rebind_TDS {
+        using Other = TimeStamped<typename Base::template Rebind_TDS<Tds>::Other>;
+    };
+    using Has_timestamp = CGAL::Tag_true;
+    std::size_t time_stamp() const { return m_time_stamp; }
+    void set_time_stamp(const std::size_t& ts) { m_time_stamp = ts; }
+
+  private:
+    std::size_t m_time_stamp = std::size_t(-1);
+};
+
 // Triangulation that inserts the constraints: exact crossings, input constraints kept.
-using Vb1 = CGAL::Triangulation_vertex_base_with_info_2<VInfo, KE>;
-using Fb1i = CGAL::Triangulation_face_base_with_info_2<FInfo, KE>;
+using Vb1 =
+    CGAL::Triangulation_vertex_base_with_info_2<VInfo, KE,
+                                                TimeStamped<CGAL::Triangulation_vertex_base_2<KE>>>;
+using Fb1i =
+    CGAL::Triangulation_face_base_with_info_2<FInfo, KE,
+                                              TimeStamped<CGAL::Triangulation_face_base_2<KE>>>;
 using Fb1 = CGAL::Constrained_triangulation_face_base_2<KE, Fb1i>;
 using Tds1 = CGAL::Triangulation_data_structure_2<Vb1, Fb1>;
 using Cdt1Base =
@@ -90,7 +117,8 @@ using Cdt1 = CGAL::Constrained_triangulation_plus_2<Cdt1Base>;
 
 // Triangulation that is refined: its constraints no longer cross (they are the edges of a Cdt1).
 using Vb2 =
-    CGAL::Triangulation_vertex_base_with_info_2<VInfo, K, CGAL::Delaunay_mesh_vertex_base_2<K>>;
+    CGAL::Triangulation_vertex_base_with_info_2<VInfo, K,
+                                                TimeStamped<CGAL::Delaunay_mesh_vertex_base_2<K>>>;
 using Fb2 = CGAL::Delaunay_mesh_face_base_2<K>;
 using Tds2 = CGAL::Triangulation_data_structure_2<Vb2, Fb2>;
 using Cdt2 = CGAL::Constrained_Delaunay_triangulation_2<K, Tds2, CGAL::Exact_predicates_tag>;
