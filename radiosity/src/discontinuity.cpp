@@ -495,9 +495,13 @@ void refine_region(const Regions& regions, const RegionShafts& shafts, const Mes
         }
         if (whole) exact += f.indirect->at(r, x);
         const double diff = visdb::channel_mean(glm::abs(exact - linear));
-        bool dark = false, lit = false;  // corners in full shadow, corners with direct light
-        for (const std::uint32_t v : corners)
-            (visdb::channel_mean(f.direct[v]) == 0.0 ? dark : lit) = true;
+        bool dark = false, lit = false;  // a corner in full shadow, a corner with direct light
+        for (const std::uint32_t v : corners) {
+            if (visdb::channel_mean(f.direct[v]) == 0.0)
+                dark = true;
+            else
+                lit = true;
+        }
         if (diff > (dark && lit ? kOnsetFloor * floor : floor) &&
             diff > options.refine_tolerance *
                        std::max(visdb::channel_mean(exact), visdb::channel_mean(linear)))
