@@ -528,8 +528,8 @@ double copy_for_refinement(
     }
     std::vector<std::uint32_t> order(v1.size());
     for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-    // Input vertices first, then boundary vertices, each by position: not in the first CDT's
-    // order, which follows the heap
+    // Input vertices first, then boundary vertices, each by position, not in the first CDT's
+    // container order (which followed the heap before its handles carried time stamps)
     std::vector<Vec2> at(v1.size());
     for (std::size_t i = 0; i < v1.size(); ++i)
         at[i] = {CGAL::to_double(v1[i]->point().x()), CGAL::to_double(v1[i]->point().y())};
@@ -580,9 +580,9 @@ double copy_for_refinement(
 
     // Constrained edges between representatives, routed through the ones within eps; an
     // edge toggles when an odd number of toggling first-CDT edges lie along it. The edges go
-    // in sorted, not in the first CDT's order: its faces' order in memory follows the heap (its
-    // constraint hierarchy orders vertex handles by address), and the mesher's result depends
-    // on the order the constraints go in
+    // in sorted, not in the first CDT's face order: the mesher's result depends on the order
+    // the constraints go in, and that order followed the heap (the first CDT's constraint
+    // hierarchy ordered vertex handles by address before they carried time stamps)
     std::vector<std::tuple<std::uint32_t, std::uint32_t, char>> found;  // a, b, toggling
     for (auto e = cdt.finite_edges_begin(); e != cdt.finite_edges_end(); ++e) {
         if (!cdt.is_constrained(*e)) continue;
