@@ -515,24 +515,22 @@ double copy_for_refinement(
     std::unordered_set<Cdt1::Vertex_handle> on_boundary;
     for (const auto& chain : chains) on_boundary.insert(chain.begin(), chain.end());
     std::vector<Cdt1::Vertex_handle> v1;
+    std::vector<Vec2> at;  // v1's positions, rounded
     std::vector<int> rank;
     Box bounds;
     for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
         const std::uint32_t id = v->info().id;
         v1.push_back(v);
+        at.push_back({CGAL::to_double(v->point().x()), CGAL::to_double(v->point().y())});
         rank.push_back(id != kNone && in.verts[id].source != kNewVertex ? 0
                        : on_boundary.count(v) != 0                      ? 1
                                                                         : 2);
-        bounds.grow(
-            glm::dvec3(CGAL::to_double(v->point().x()), CGAL::to_double(v->point().y()), 0.0));
+        bounds.grow(glm::dvec3(at.back().x, at.back().y, 0.0));
     }
     std::vector<std::uint32_t> order(v1.size());
     for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
     // Input vertices first, then boundary vertices, each by position, not in the first CDT's
     // container order (which followed the heap before its handles carried time stamps)
-    std::vector<Vec2> at(v1.size());
-    for (std::size_t i = 0; i < v1.size(); ++i)
-        at[i] = {CGAL::to_double(v1[i]->point().x()), CGAL::to_double(v1[i]->point().y())};
     std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
         return std::tuple(rank[a], at[a].x, at[a].y) < std::tuple(rank[b], at[b].x, at[b].y);
     });
