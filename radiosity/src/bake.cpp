@@ -47,6 +47,7 @@ std::vector<std::pair<std::string, std::string>> parameters_of(const BakeOptions
         if (o.method == Visibility::ABuffer)
             p.emplace_back("element_subpixels", std::to_string(o.element_subpixels));
         p.emplace_back("shooter_cells", std::to_string(o.shooter_cells));
+        if (o.edge_gather) p.emplace_back("edge_gather", "on");
     }
     if (o.dm) {
         p.emplace_back("dm_angle", std::to_string(o.dm_min_angle));
@@ -166,9 +167,16 @@ std::vector<visdb::LightGroupShades> shade_light_groups(
         const std::vector<visdb::Rgb> direct =
             group_direct(lights, regions, bvh, hemicube, shaded, dm, o);
         std::optional<IndirectSolution> indirect;
-        if (options.bounces != 0) indirect = interreflect(lights, regions, o, nullptr, {});
-        visdb::BakeMesh m = shade_vertices(std::move(shaded), direct,
-                                           indirect ? &*indirect : nullptr, vertex_region, nullptr);
+        std::optional<VertexGather> gathered;
+        if (options.bounces != 0) {
+            indirect = interreflect(lights, regions, o, nullptr, {});
+            if (options.edge_gather)
+                gathered = gather_near_boundaries(lights, regions, o, *indirect, shaded, direct,
+                                                  vertex_region, {});
+        }
+        visdb::BakeMesh m =
+            shade_vertices(std::move(shaded), direct, indirect ? &*indirect : nullptr,
+                           vertex_region, gathered ? &*gathered : nullptr, nullptr);
         out.push_back({groups[i], std::move(m.irradiance), std::move(m.radiosity)});
     }
     if (progress) progress("light groups", groups.size(), groups.size());
@@ -245,8 +253,16 @@ visdb::Bake bake_here(const visdb::Scene& scene, const BakeOptions& options,
                                vertex_region, dm.has_value(), options, progress);
         stats.seconds_light_groups = seconds_since(t_groups);
     }
+    std::optional<VertexGather> gathered;
+    if (indirect && options.edge_gather) {
+        const auto t_gather = Clock::now();
+        gathered = gather_near_boundaries(*sources, regions, options, *indirect, target, direct,
+                                          vertex_region, progress);
+        stats.indirect->gathered_vertices = gathered->vertices.size();
+        stats.indirect->seconds_gather = seconds_since(t_gather);
+    }
     result.mesh = shade_vertices(std::move(target), direct, indirect ? &*indirect : nullptr,
-                                 vertex_region, &stats);
+                                 vertex_region, gathered ? &*gathered : nullptr, &stats);
 
     // Statistics and parameters
     stats.triangles = result.mesh.triangles.size();
@@ -286,6 +302,8 @@ constexpr UsedWhen kUsedWhen[] = {
     {"--element-size", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},
     {"--shooter-cells", [](const BakeOptions& o) { return o.bounces != 0; },
+     "--bounces converge or N > 0"},
+    {"--edge-gather", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},
     {"--convergence-csv", [](const BakeOptions& o) { return o.bounces != 0; },
      "--bounces converge or N > 0"},

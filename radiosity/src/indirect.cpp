@@ -276,6 +276,17 @@ visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const
     return value;
 }
 
+bool IndirectSolution::interpolates(std::uint32_t region, const glm::dvec3& p) const {
+    if (region >= grids.size()) return false;
+    const Grid& g = grids[region];
+    const int i0 = static_cast<int>(std::floor(glm::dot(p - g.origin, g.u) / element_size - 0.5));
+    const int j0 = static_cast<int>(std::floor(glm::dot(p - g.origin, g.v) / element_size - 0.5));
+    for (int dj = 0; dj < 2; ++dj)
+        for (int di = 0; di < 2; ++di)
+            if (element_at(region, i0 + di, j0 + dj) == kNoElement) return false;
+    return true;
+}
+
 void validate(const IndirectOptions& o) {
     if (o.bounces < 0 || o.bounces > 1000)
         throw InputError("--bounces must be in [0, 1000], got " + std::to_string(o.bounces));
@@ -577,6 +588,8 @@ class Solver {
         std::sort(m_element_triangle.begin(), m_element_triangle.end());
         m_vis = o.patches;
         m_sol.visibility_triangles = m_vis.size();
+        m_sol.visibility_whole = vis_whole;
+        m_sol.visibility_main = vis_main;
         m_targets = std::make_unique<ElementTargets>(m_sol, o.region, std::move(vis_whole),
                                                      std::move(vis_main));
     }
@@ -1365,6 +1378,157 @@ IndirectSolution solve_indirect(const IndirectInput& in, const IndirectOptions& 
                                 const ProgressFn& progress) {
     validate(options);
     return Solver(in, options, progress).run();
+}
+
+namespace {
+
+// A region's field from its elements' values at a point: bilinear between the four cell
+// centres around it where all four hold elements, else the value of the element holding the
+// point extended by its one- or two-sided differences to its neighbours along the grid's axes
+// (linear, not constant, to the region's edge), at least 0.
+template <class Value>
+visdb::Rgb linear_at(const IndirectSolution& sol, std::uint32_t region, const glm::dvec3& p,
+                     const Value& value) {
+    const IndirectSolution::Grid& g = sol.grids[region];
+    const double s = glm::dot(p - g.origin, g.u) / sol.element_size - 0.5;
+    const double t = glm::dot(p - g.origin, g.v) / sol.element_size - 0.5;
+    if (sol.interpolates(region, p)) {
+        const int i0 = static_cast<int>(std::floor(s)), j0 = static_cast<int>(std::floor(t));
+        const double a = s - i0, b = t - j0;
+        return (1 - a) * (1 - b) * value(sol.element_at(region, i0, j0)) +
+               a * (1 - b) * value(sol.element_at(region, i0 + 1, j0)) +
+               (1 - a) * b * value(sol.element_at(region, i0, j0 + 1)) +
+               a * b * value(sol.element_at(region, i0 + 1, j0 + 1));
+    }
+    const int i = static_cast<int>(std::floor(s + 0.5)), j = static_cast<int>(std::floor(t + 0.5));
+    const std::uint32_t e = sol.element_at(region, i, j);
+    if (e == IndirectSolution::kNoElement) return sol.at(region, p);
+    const visdb::Rgb c = value(e);
+    const auto slope = [&](int di, int dj) {
+        const std::uint32_t lo = sol.element_at(region, i - di, j - dj);
+        const std::uint32_t hi = sol.element_at(region, i + di, j + dj);
+        const bool has_lo = lo != IndirectSolution::kNoElement;
+        const bool has_hi = hi != IndirectSolution::kNoElement;
+        if (has_lo && has_hi) return 0.5 * (value(hi) - value(lo));
+        if (has_hi) return value(hi) - c;
+        if (has_lo) return c - value(lo);
+        return visdb::Rgb(0.0);
+    };
+    return glm::max(c + (s - i) * slope(1, 0) + (t - j) * slope(0, 1), visdb::Rgb(0.0));
+}
+
+// The gathers' targets: each element's cell cut into kGatherCells × kGatherCells parts, so
+// that a sample carries the radiosity at its part's centre (linear_at), not the element's
+// mean; ids below `plain` are parts (element × kGatherCells² + part), the others an element
+// whole (plain + element).
+constexpr int kGatherCells = 8;
+
+class PartTargets final : public Targets {
+  public:
+    PartTargets(const IndirectSolution& sol, std::span<const std::uint32_t> region)
+        : m_sol(sol),
+          m_region(region),
+          m_plain(static_cast<std::uint32_t>(sol.elements.size() * kGatherCells * kGatherCells)) {}
+
+    std::uint32_t whole(std::uint32_t t) const override {
+        const std::uint32_t e = m_sol.visibility_whole[t];
+        return e != IndirectSolution::kNoElement && e != kNoPatch ? m_plain + e : kNoPatch;
+    }
+
+    Grid grid(std::uint32_t t) const override {
+        const IndirectSolution::Grid& g = m_sol.grids[m_region[t]];
+        return {g.origin, g.u, g.v, m_sol.element_size / kGatherCells};
+    }
+
+    std::uint32_t cell(std::uint32_t t, int i, int j) const override {
+        const int ci = floor_div(i), cj = floor_div(j);
+        const std::uint32_t e = m_sol.element_at(m_region[t], ci, cj);
+        if (e == IndirectSolution::kNoElement) return m_plain + m_sol.visibility_main[t];
+        const auto part = static_cast<std::uint32_t>((j - cj * kGatherCells) * kGatherCells +
+                                                     (i - ci * kGatherCells));
+        return e * kGatherCells * kGatherCells + part;
+    }
+
+    std::uint32_t plain() const { return m_plain; }
+
+    // The centre of part `id` (id < plain())
+    glm::dvec3 centre(std::uint32_t id) const {
+        const std::uint32_t e = id / (kGatherCells * kGatherCells);
+        const std::uint32_t part = id % (kGatherCells * kGatherCells);
+        const IndirectSolution::Element& el = m_sol.elements[e];
+        const IndirectSolution::Grid& g = m_sol.grids[el.region];
+        const double a = el.cell.x + (part % kGatherCells + 0.5) / kGatherCells;
+        const double b = el.cell.y + (part / kGatherCells + 0.5) / kGatherCells;
+        return g.origin + m_sol.element_size * (a * g.u + b * g.v);
+    }
+
+  private:
+    static int floor_div(int i) {
+        return i >= 0 ? i / kGatherCells : -((-i + kGatherCells - 1) / kGatherCells);
+    }
+
+    const IndirectSolution& m_sol;
+    std::span<const std::uint32_t> m_region;
+    std::uint32_t m_plain;
+};
+
+}  // namespace
+
+std::vector<visdb::Rgb> gather_indirect(const IndirectInput& in, const IndirectSolution& sol,
+                                        const IndirectOptions& options,
+                                        std::span<const ProbePoint> points,
+                                        const DirectAt& direct_at, const ProgressFn& progress) {
+    std::vector<visdb::Rgb> h(points.size(), visdb::Rgb(0.0));
+    if (points.empty()) return h;
+    Outlines own;
+    if (!in.outlines) own = outline_patches(in.patches, in.region, in.region_normal);
+    const Outlines& o = in.outlines ? *in.outlines : own;
+    ABRAD_CHECK(sol.visibility_whole.size() == o.patches.size() &&
+                    sol.visibility_main.size() == o.patches.size(),
+                "gather_indirect: the solution was made from other visibility triangles");
+    const double size = sol.element_size;
+    const Bvh bvh(o.patches);
+    const Occluders occluders = large_occluders(o.patches, size * size, kNearOccluders * size);
+    const PartTargets targets(sol, o.region);
+    const Hemicube hemicube(options.row_resolution);
+    const ShootOptions shoot_options{.method = options.method,
+                                     .subpixels = options.row_subpixels,
+                                     .occlusion = false,
+                                     .bvh = &bvh,
+                                     .sparse = true,
+                                     .targets = &targets,
+                                     .occluders_first = &occluders,
+                                     .fine_masks = false};
+    // What each element reflects: ρ times all it receives (the ambient term's share too)
+    const auto direct = [&](std::uint32_t e) { return sol.elements[e].direct; };
+    const auto indirect = [&](std::uint32_t e) { return sol.elements[e].indirect; };
+    ParallelProgress report(progress, "indirect: gathers", points.size());
+    tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t k) {
+        const ProbePoint& p = points[k];
+        const ShootResult shot =
+            shoot(ShooterFrame::at(p.x, p.n), o.patches, hemicube, shoot_options);
+        visdb::Rgb sum(0.0);
+        for (const auto [id, f] : shot.hits) {
+            const bool part = id < targets.plain();
+            const std::uint32_t e =
+                part ? id / (kGatherCells * kGatherCells) : id - targets.plain();
+            const IndirectSolution::Element& el = sol.elements[e];
+            // An element reflects from its front only
+            if (!(glm::dot(p.x - el.centroid, in.region_normal[el.region]) > 0.0)) continue;
+            if (!part) {
+                sum += f * el.reflectance * (el.direct + el.indirect);
+                continue;
+            }
+            const glm::dvec3 c = targets.centre(id);
+            std::optional<visdb::Rgb> d;
+            if (direct_at) d = direct_at(e, c);
+            if (!d) d = linear_at(sol, el.region, c, direct);
+            sum += f * el.reflectance * (*d + linear_at(sol, el.region, c, indirect));
+        }
+        h[k] = sum;
+        report.add(1);
+    });
+    return h;
 }
 
 }  // namespace abrad::radiosity

@@ -101,11 +101,15 @@ std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeom
 
 std::vector<visdb::Rgb> conservative_indirect(const BakeGeometry& target,
                                               const IndirectSolution& indirect,
-                                              const std::vector<std::uint32_t>& vertex_region) {
+                                              const std::vector<std::uint32_t>& vertex_region,
+                                              const VertexGather* gathered) {
     const visdb::BakeMesh& mesh = target.mesh;
     std::vector<visdb::Rgb> x(mesh.positions.size());
     for (std::size_t v = 0; v < x.size(); ++v)
         x[v] = indirect.at(vertex_region[v], mesh.positions[v]);
+    if (gathered)
+        for (std::size_t k = 0; k < gathered->vertices.size(); ++k)
+            x[gathered->vertices[k]] = gathered->values[k];
     // Per region: the flux the solution holds (Σ H·A over its elements) and the Gouraud
     // field's (Σ over its triangles of the area times the mean of the corners)
     const std::size_t regions = indirect.grids.size();
@@ -131,7 +135,7 @@ std::vector<visdb::Rgb> conservative_indirect(const BakeGeometry& target,
 visdb::BakeMesh shade_vertices(BakeGeometry target, const std::vector<visdb::Rgb>& direct,
                                const IndirectSolution* indirect,
                                const std::vector<std::uint32_t>& vertex_region,
-                               visdb::BakeStats* stats) {
+                               const VertexGather* gathered, visdb::BakeStats* stats) {
     // B = E + ρH with the material of the vertex's first triangle: all of a vertex's
     // triangles belong to one surface
     visdb::BakeMesh& mesh = target.mesh;
@@ -139,7 +143,7 @@ visdb::BakeMesh shade_vertices(BakeGeometry target, const std::vector<visdb::Rgb
     mesh.irradiance.resize(n);
     mesh.radiosity.resize(n);
     std::vector<visdb::Rgb> reflected;
-    if (indirect) reflected = conservative_indirect(target, *indirect, vertex_region);
+    if (indirect) reflected = conservative_indirect(target, *indirect, vertex_region, gathered);
     double indirect_sum = 0.0;
     for (std::size_t v = 0; v < n; ++v) {
         const std::uint32_t t = target.incident[target.incident_start[v]];

@@ -162,6 +162,31 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
                               const BakeOptions& options, visdb::BakeStats* stats,
                               const ProgressFn& progress);
 
+/// BakeOptions::edge_gather: the indirect part gathered at the vertices of `target` that lie
+/// on a region of kGatherMinElements elements or more (rooms' walls, floors and ceilings, not
+/// furniture's faces), within kGatherBand of its outline, where the element field's
+/// interpolation extrapolates (IndirectSolution::interpolates). Each is a final gather from
+/// `solution` (gather_indirect, the direct part of what it sees the bake's exact vertex values
+/// `direct` interpolated over target's triangles) at a point kGatherInset (at most
+/// kGatherInsetFraction of the way to its triangles' centroid) inside the vertex's triangles
+/// and kGatherLift in front of them. `sources` and `regions` are what the solution was solved
+/// on. docs/algorithms.md#interreflection ("Where surfaces meet").
+struct VertexGather {
+    std::vector<std::uint32_t> vertices;  ///< ascending
+    std::vector<visdb::Rgb> values;       ///< per entry of `vertices`
+};
+VertexGather gather_near_boundaries(const BakeGeometry& sources, const Regions& regions,
+                                    const BakeOptions& options, const IndirectSolution& solution,
+                                    const BakeGeometry& target,
+                                    const std::vector<visdb::Rgb>& direct,
+                                    const std::vector<std::uint32_t>& vertex_region,
+                                    const ProgressFn& progress);
+constexpr double kGatherInset = 1e-3;  // m
+constexpr double kGatherInsetFraction = 0.05;
+constexpr double kGatherLift = 1e-6;  // m
+constexpr std::uint32_t kGatherMinElements = 16;
+constexpr double kGatherBand = 0.15;  // m
+
 /// The paper's patch shading on `target` (a new mesh): every light of `lights` shoots again
 /// onto target's triangles; each vertex gets the area-weighted irradiance of its triangles.
 std::vector<visdb::Rgb> shade_patches(const BakeGeometry& lights, const BakeGeometry& target,
@@ -199,7 +224,8 @@ double add_flux_irradiance(const ShootResult& shot, const visdb::Rgb& flux,
 /// within [1/kMaxFluxScale, kMaxFluxScale]. docs/algorithms.md#interreflection ("At the vertices").
 std::vector<visdb::Rgb> conservative_indirect(const BakeGeometry& target,
                                               const IndirectSolution& indirect,
-                                              const std::vector<std::uint32_t>& vertex_region);
+                                              const std::vector<std::uint32_t>& vertex_region,
+                                              const VertexGather* gathered = nullptr);
 constexpr double kMaxFluxScale = 1.5;
 
 /// B = E + ρH at every vertex of `target`; `vertex_region` gives each vertex's planar region
@@ -208,6 +234,6 @@ constexpr double kMaxFluxScale = 1.5;
 visdb::BakeMesh shade_vertices(BakeGeometry target, const std::vector<visdb::Rgb>& direct,
                                const IndirectSolution* indirect,
                                const std::vector<std::uint32_t>& vertex_region,
-                               visdb::BakeStats* stats);
+                               const VertexGather* gathered, visdb::BakeStats* stats);
 
 }  // namespace abrad::radiosity

@@ -387,14 +387,16 @@ TEST(IndirectCorners, EveryFaceExportsTheFluxTheRoomReflectsOntoIt) {
     }
 }
 
-// The default bake's worst errors 5 cm and 25 cm from an edge, per ρ, against the reference;
-// returns the points outside kBound.
-int measure_near_edges(std::string& table) {
+// The bake's worst errors 5 cm and 25 cm from an edge, per ρ, against the reference; returns
+// the points outside `bound` (at 5 cm, and at 25 cm too unless `near_only`). `worst5` gets the
+// worst 5 cm error.
+int measure_near_edges(std::string& table, const BakeOptions& options = {}, double bound = kBound,
+                       bool near_only = false, double* worst5 = nullptr) {
     table = "| rho | 5 cm: worst export | at | 25 cm: worst export | at | probe at 5 cm |\n";
     int misses = 0;
     for (const double rho : {0.05, 0.3, 0.7}) {
         const visdb::Scene scene = room_scene(rho);
-        const visdb::Bake b = bake(scene, BakeOptions{});
+        const visdb::Bake b = bake(scene, options);
         const RoomReference reference(rho, kReferenceBreaks);
         const DirectField direct(scene);
         const PointIrradiance probe(scene, &b);
@@ -409,7 +411,7 @@ int measure_near_edges(std::string& table) {
             const double indirect = b.mesh.irradiance[v].y - direct.irradiance(x, n).y;
             const double error = indirect / expected - 1.0;
             (at5 ? near : far).add(error, x);
-            misses += std::abs(error) > kBound;
+            misses += (at5 || !near_only) && std::abs(error) > bound;
             if (at5) {
                 const ProbePoint p{x + 1e-6 * n, n};
                 const double g = probe.at({&p, 1})[0].y - direct.irradiance(x, n).y;
@@ -426,8 +428,24 @@ int measure_near_edges(std::string& table) {
         table += row;
         EXPECT_GT(near.count, 100);  // the scene's vertices survive the discontinuity mesh
         EXPECT_GT(far.count, 100);
+        if (worst5 && std::abs(near.error) > std::abs(*worst5)) *worst5 = near.error;
     }
     return misses;
+}
+
+// With --edge-gather the vertices within kGatherBand of the faces' edges take a hemicube's
+// gather from the elements (each element's light interpolated over its cell, the direct part
+// the bake's exact vertex values) instead of the nearest element centres' values: every 5 cm
+// point within 8 % of the reference at ρ 0.05, 0.3 and 0.7 (without it +50 / +58 / +27 %).
+TEST(IndirectCorners, EdgeGatherWithin8PercentOfTheReferenceNearEdges) {
+    BakeOptions options;
+    options.edge_gather = true;
+    std::string table;
+    double worst = 0.0;
+    const int misses = measure_near_edges(table, options, 0.08, true, &worst);
+    std::printf("%s", table.c_str());
+    EXPECT_EQ(misses, 0) << table;
+    EXPECT_LT(std::abs(worst), 0.08);
 }
 
 // Known defect (docs/validation.md, "Indirect light where surfaces meet"): the indirect part

@@ -150,6 +150,12 @@ void add_bake_options(CLI::App& app, BakeArgs& a) {
                    "ambient term")
         ->check(CLI::IsMember({"on", "off"}))
         ->capture_default_str();
+    app.add_option("--edge-gather", a.edge_gather,
+                   "Gather the indirect light at vertices near the edges of large surfaces "
+                   "(room corners) with a hemicube each, instead of extrapolating it from "
+                   "the elements: corners within a few percent, at a hemicube per such vertex")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
     app.add_option("--convergence-csv", a.convergence_csv,
                    "Write the convergence curve (shots, "
                    "seconds, unshot fraction) to this CSV");
@@ -220,6 +226,7 @@ radiosity::BakeOptions to_options(const BakeArgs& a, const CLI::App& app) {
     o.shooter_cells = a.shooter_cells;
     o.overrelaxation = a.overrelax;
     o.ambient = a.ambient == "on";
+    o.edge_gather = a.edge_gather == "on";
     o.shading = a.shading == "patch" ? radiosity::Shading::Patch : radiosity::Shading::Exact;
     o.threads = a.threads;
     o.dm = a.dm == "on";

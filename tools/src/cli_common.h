@@ -92,6 +92,7 @@ struct BakeArgs {
     int shooter_cells = kBakeDefaults.shooter_cells;
     double overrelax = kBakeDefaults.overrelaxation;
     std::string ambient = "on";
+    std::string edge_gather = "off";
     std::string convergence_csv;
     std::string shading = "exact";
     int threads = kBakeDefaults.threads;

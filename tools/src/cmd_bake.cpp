@@ -149,6 +149,9 @@ void print_bake_summary(const visdb::Bake& b, const visdb::Scene& scene) {
                   << "  energy: emitted " << i->energy_emitted_w << power << " = absorbed "
                   << i->energy_absorbed_w << power << " + escaped " << i->energy_escaped_w << power
                   << " + unshot " << i->energy_unshot_w << power << "\n";
+        if (i->gathered_vertices > 0)
+            std::cout << "  edge gather: " << i->gathered_vertices << " vertices, "
+                      << i->seconds_gather << " s\n";
     }
 }
 

@@ -73,6 +73,11 @@ struct BakeOptions {
     int shooter_cells = 2;
     double overrelaxation = 1.0;  ///< Southwell ω in [1, 2) when converging
     bool ambient = true;          ///< spread what is left unshot as the ambient term
+    /// The indirect part at output vertices within kGatherBand of a large region's edge
+    /// gathered from the element solution by a hemicube at the vertex (gather_indirect),
+    /// instead of extrapolated from the elements' centres: corners within a few percent, at a
+    /// hemicube per such vertex (docs/algorithms.md#interreflection, "Where surfaces meet").
+    bool edge_gather = false;
     /// When set, receives the convergence curve (unshot fraction against shots and time).
     std::vector<ConvergenceSample>* convergence = nullptr;
     Shading shading = Shading::Exact;

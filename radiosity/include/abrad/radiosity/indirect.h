@@ -122,6 +122,10 @@ struct IndirectSolution {
     /// bilinear between the centres of the region's grid cells, over the cells that hold an
     /// element (0 in a region without elements).
     visdb::Rgb at(std::uint32_t region, const glm::dvec3& p) const;
+    /// Whether `at` interpolates at `p`: all four cells around it hold elements. False within
+    /// half a cell of the region's boundary (and on regions smaller than two cells), where
+    /// `at` extrapolates the nearest centres' values: gather_indirect is for those points.
+    bool interpolates(std::uint32_t region, const glm::dvec3& p) const;
 
     // What the solution did
     std::size_t pieces = 0;  ///< parts of triangles in elements (triangle ∩ cell)
@@ -157,6 +161,10 @@ struct IndirectSolution {
     };
     std::vector<Grid> grids;
     std::unordered_map<std::uint64_t, std::uint32_t> cell_element;  ///< cell_key → element
+    /// Per visibility triangle (Outlines::patches): the element it lies wholly in, or
+    /// kNoElement, and the element its pixels go to off the region's cells (gather_indirect's
+    /// hemicubes hand fragments to elements as the rows' do)
+    std::vector<std::uint32_t> visibility_whole, visibility_main;
 
     /// The element of cell (i, j) of `region`, or kNoElement: a dense table per region over
     /// its cells' bounding rectangle (the hash map for regions whose rectangle is mostly
@@ -248,5 +256,28 @@ class PointIrradiance {
     DirectField m_direct;
     std::optional<IndirectField> m_indirect;
 };
+
+}  // namespace abrad::radiosity
+
+namespace abrad::radiosity {
+
+/// A final gather from the element solution: the indirect irradiance at each point, a hemicube
+/// there (the rows' resolution and masks) seeing the visibility triangles, each sample
+/// carrying the reflected radiosity ρ(direct + indirect) of the element it lies in, from its
+/// front. Where the element field's interpolation extrapolates (within half a cell of a
+/// region's edge, IndirectSolution::interpolates), the gather follows the bend of the field
+/// that a corner's near surfaces put there. `input` and `options` are the solve's, `solution`
+/// its result. In parallel; progress as "indirect: gathers".
+/// `direct_at(element, x)`, when given, is the direct irradiance at point x of the element's
+/// region (the bake's exact vertex values, interpolated), or nothing where it has none; else,
+/// and where it has none, the elements' direct part is interpolated as their indirect part.
+using DirectAt =
+    std::function<std::optional<visdb::Rgb>(std::uint32_t element, const glm::dvec3& x)>;
+std::vector<visdb::Rgb> gather_indirect(const IndirectInput& input,
+                                        const IndirectSolution& solution,
+                                        const IndirectOptions& options,
+                                        std::span<const ProbePoint> points,
+                                        const DirectAt& direct_at = {},
+                                        const ProgressFn& progress = {});
 
 }  // namespace abrad::radiosity

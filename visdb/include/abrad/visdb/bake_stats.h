@@ -111,8 +111,10 @@ struct InterreflectionStats {
     std::uint64_t rows = 0;                  ///< hemicubes placed at shooters
     std::uint64_t bounces = 0;               ///< complete bounces (bounce mode)
     double unshot_fraction = 0.0;
-    double ambient = 0.0;           ///< mean over channels of the ambient irradiance
-    double mean_at_vertices = 0.0;  ///< mean indirect irradiance added at the output vertices
+    double ambient = 0.0;                 ///< mean over channels of the ambient irradiance
+    double mean_at_vertices = 0.0;        ///< mean indirect irradiance added at the output vertices
+    std::uint64_t gathered_vertices = 0;  ///< output vertices whose indirect part was gathered
+    double seconds_gather = 0.0;          ///< wall seconds of those gathers
     double energy_emitted_w = 0.0;
     double energy_absorbed_w = 0.0;
     double energy_escaped_w = 0.0;
@@ -213,6 +215,8 @@ void indirect_keys(I& i, F& f) {
     f("energy_escaped_w", i.energy_escaped_w);
     f("energy_unshot_w", i.energy_unshot_w);
     f("seconds_indirect", i.seconds);
+    f("indirect_gathered_vertices", i.gathered_vertices);
+    f("seconds_gather", i.seconds_gather);
 }
 template <class S, class F>
 void total_keys(S& s, F& f) {
