@@ -1457,8 +1457,8 @@ class PartTargets final : public Targets {
         const std::uint32_t part = id % (kGatherCells * kGatherCells);
         const IndirectSolution::Element& el = m_sol.elements[e];
         const IndirectSolution::Grid& g = m_sol.grids[el.region];
-        const double a = el.cell.x + (part % kGatherCells + 0.5) / kGatherCells;
-        const double b = el.cell.y + (part / kGatherCells + 0.5) / kGatherCells;
+        const double a = el.cell.x + (double(part % kGatherCells) + 0.5) / kGatherCells;
+        const double b = el.cell.y + (double(part / kGatherCells) + 0.5) / kGatherCells;
         return g.origin + m_sol.element_size * (a * g.u + b * g.v);
     }
 
@@ -1477,7 +1477,8 @@ class PartTargets final : public Targets {
 std::vector<visdb::Rgb> gather_indirect(const IndirectInput& in, const IndirectSolution& sol,
                                         const IndirectOptions& options,
                                         std::span<const ProbePoint> points,
-                                        const DirectAt& direct_at, const ProgressFn& progress) {
+                                        const FieldAt& direct_at, const FieldAt& indirect_at,
+                                        const ProgressFn& progress) {
     std::vector<visdb::Rgb> h(points.size(), visdb::Rgb(0.0));
     if (points.empty()) return h;
     Outlines own;
@@ -1520,10 +1521,12 @@ std::vector<visdb::Rgb> gather_indirect(const IndirectInput& in, const IndirectS
                 continue;
             }
             const glm::dvec3 c = targets.centre(id);
-            std::optional<visdb::Rgb> d;
+            std::optional<visdb::Rgb> d, i;
             if (direct_at) d = direct_at(e, c);
             if (!d) d = linear_at(sol, el.region, c, direct);
-            sum += f * el.reflectance * (*d + linear_at(sol, el.region, c, indirect));
+            if (indirect_at) i = indirect_at(e, c);
+            if (!i) i = linear_at(sol, el.region, c, indirect);
+            sum += f * el.reflectance * (*d + *i);
         }
         h[k] = sum;
         report.add(1);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <glm/common.hpp>
 #include <glm/vec2.hpp>
 #include <limits>
@@ -185,8 +186,9 @@ VertexGather gather_near_boundaries(const BakeGeometry& sources, const Regions& 
                     {IndirectSolution::cell_key(r, i, j), static_cast<std::uint32_t>(t)});
     }
     std::sort(cell_triangle.begin(), cell_triangle.end());
-    const DirectAt direct_at = [&](std::uint32_t e,
-                                   const glm::dvec3& x) -> std::optional<visdb::Rgb> {
+    // Target's Gouraud field of per-vertex values at point x of element e's region
+    const auto gouraud = [&](const std::vector<visdb::Rgb>& values, std::uint32_t e,
+                             const glm::dvec3& x) -> std::optional<visdb::Rgb> {
         const std::uint32_t r = solution.elements[e].region;
         const glm::dvec2 q = plane(r, x);
         const std::uint64_t key =
@@ -205,12 +207,27 @@ VertexGather gather_near_boundaries(const BakeGeometry& sources, const Regions& 
             const double wa = 1.0 - wb - wc;
             constexpr double kSlack = -1e-9;
             if (wa < kSlack || wb < kSlack || wc < kSlack) continue;
-            return wa * direct[tri.x] + wb * direct[tri.y] + wc * direct[tri.z];
+            return wa * values[tri.x] + wb * values[tri.y] + wc * values[tri.z];
         }
         return std::nullopt;
     };
-    out.values = gather_indirect(solver_input(sources, regions, region_normal), solution,
-                                 solver_options(options), points, direct_at, progress);
+    const FieldAt direct_at = [&](std::uint32_t e, const glm::dvec3& x) {
+        return gouraud(direct, e, x);
+    };
+    const IndirectInput input = solver_input(sources, regions, region_normal);
+    const IndirectOptions io = solver_options(options);
+    // The first sweep sees the elements' indirect part interpolated over their cells; each
+    // next one the export's as it stands (these vertices' last gathers, the interpolated
+    // elements elsewhere, scaled as conservative_indirect scales them)
+    std::vector<visdb::Rgb> exported;
+    const FieldAt indirect_at = [&](std::uint32_t e, const glm::dvec3& x) {
+        return gouraud(exported, e, x);
+    };
+    for (int sweep = 0; sweep < kGatherSweeps; ++sweep) {
+        if (sweep > 0) exported = conservative_indirect(target, solution, vertex_region, &out);
+        out.values = gather_indirect(input, solution, io, points, direct_at,
+                                     sweep > 0 ? indirect_at : FieldAt{}, progress);
+    }
     return out;
 }
 

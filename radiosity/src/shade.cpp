@@ -107,28 +107,37 @@ std::vector<visdb::Rgb> conservative_indirect(const BakeGeometry& target,
     std::vector<visdb::Rgb> x(mesh.positions.size());
     for (std::size_t v = 0; v < x.size(); ++v)
         x[v] = indirect.at(vertex_region[v], mesh.positions[v]);
+    // Gathered vertices keep their values (point values, not extrapolations): the others carry
+    // the scale
+    std::vector<char> fixed(x.size(), 0);
     if (gathered)
-        for (std::size_t k = 0; k < gathered->vertices.size(); ++k)
+        for (std::size_t k = 0; k < gathered->vertices.size(); ++k) {
             x[gathered->vertices[k]] = gathered->values[k];
+            fixed[gathered->vertices[k]] = 1;
+        }
     // Per region: the flux the solution holds (Σ H·A over its elements) and the Gouraud
-    // field's (Σ over its triangles of the area times the mean of the corners)
+    // field's (Σ over its triangles of the area times the mean of the corners), the fixed
+    // vertices' share of it apart
     const std::size_t regions = indirect.grids.size();
     std::vector<visdb::Rgb> solution(regions, visdb::Rgb(0.0)), gouraud(regions, visdb::Rgb(0.0));
+    std::vector<visdb::Rgb> kept(regions, visdb::Rgb(0.0));
     for (const IndirectSolution::Element& e : indirect.elements)
         solution[e.region] += e.indirect * e.area;
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const glm::u32vec3 tri = mesh.triangles[t];
         const std::uint32_t r = vertex_region[tri.x];
-        if (r < regions) gouraud[r] += target.area[t] / 3.0 * (x[tri.x] + x[tri.y] + x[tri.z]);
+        if (r >= regions) continue;
+        for (int k = 0; k < 3; ++k)
+            (fixed[tri[k]] ? kept : gouraud)[r] += target.area[t] / 3.0 * x[tri[k]];
     }
     std::vector<visdb::Rgb> scale(regions, visdb::Rgb(1.0));
     for (std::size_t r = 0; r < regions; ++r)
         for (int c = 0; c < 3; ++c)
             if (gouraud[r][c] > 0.0 && solution[r][c] > 0.0)
-                scale[r][c] =
-                    std::clamp(solution[r][c] / gouraud[r][c], 1.0 / kMaxFluxScale, kMaxFluxScale);
+                scale[r][c] = std::clamp((solution[r][c] - kept[r][c]) / gouraud[r][c],
+                                         1.0 / kMaxFluxScale, kMaxFluxScale);
     for (std::size_t v = 0; v < x.size(); ++v)
-        if (vertex_region[v] < regions) x[v] *= scale[vertex_region[v]];
+        if (vertex_region[v] < regions && !fixed[v]) x[v] *= scale[vertex_region[v]];
     return x;
 }
 

@@ -167,7 +167,8 @@ IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,
 /// furniture's faces), within kGatherBand of its outline, where the element field's
 /// interpolation extrapolates (IndirectSolution::interpolates). Each is a final gather from
 /// `solution` (gather_indirect, the direct part of what it sees the bake's exact vertex values
-/// `direct` interpolated over target's triangles) at a point kGatherInset (at most
+/// `direct` interpolated over target's triangles), kGatherSweeps times, at a point
+/// kGatherInset (at most
 /// kGatherInsetFraction of the way to its triangles' centroid) inside the vertex's triangles
 /// and kGatherLift in front of them. `sources` and `regions` are what the solution was solved
 /// on. docs/algorithms.md#interreflection ("Where surfaces meet").
@@ -186,6 +187,9 @@ constexpr double kGatherInsetFraction = 0.05;
 constexpr double kGatherLift = 1e-6;  // m
 constexpr std::uint32_t kGatherMinElements = 16;
 constexpr double kGatherBand = 0.15;  // m
+/// Gathers per vertex: the second sees the first's values at the other vertices near edges
+/// (the test room's 5 cm points: one sweep +4.9 % at worst, two 1.4 %)
+constexpr int kGatherSweeps = 2;
 
 /// The paper's patch shading on `target` (a new mesh): every light of `lights` shoots again
 /// onto target's triangles; each vertex gets the area-weighted irradiance of its triangles.

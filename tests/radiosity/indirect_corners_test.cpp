@@ -433,19 +433,21 @@ int measure_near_edges(std::string& table, const BakeOptions& options = {}, doub
     return misses;
 }
 
-// With --edge-gather the vertices within kGatherBand of the faces' edges take a hemicube's
-// gather from the elements (each element's light interpolated over its cell, the direct part
-// the bake's exact vertex values) instead of the nearest element centres' values: every 5 cm
-// point within 8 % of the reference at ρ 0.05, 0.3 and 0.7 (without it +50 / +58 / +27 %).
-TEST(IndirectCorners, EdgeGatherWithin8PercentOfTheReferenceNearEdges) {
+// Issue 18's bound with --edge-gather: the vertices within 0.15 m of the faces' edges take
+// two hemicube gathers (each element's light interpolated over its cell, the direct part the
+// bake's exact vertex values; the second seeing the first's values near the edges) instead of
+// the nearest element centres' values, and keep them through the flux scale. Every 5 cm point
+// within 3 % of the reference at ρ 0.05, 0.3 and 0.7 (measured −1.1 / −1.2 / +1.4 %; without
+// the option +50 / +58 / +27 %, with one gather −1.2 / +4.0 / +4.9 %).
+TEST(IndirectCorners, EdgeGatherWithin3PercentOfTheReferenceNearEdges) {
     BakeOptions options;
     options.edge_gather = true;
     std::string table;
     double worst = 0.0;
-    const int misses = measure_near_edges(table, options, 0.08, true, &worst);
+    const int misses = measure_near_edges(table, options, kBound, true, &worst);
     std::printf("%s", table.c_str());
     EXPECT_EQ(misses, 0) << table;
-    EXPECT_LT(std::abs(worst), 0.08);
+    EXPECT_LT(std::abs(worst), kBound);
 }
 
 // Known defect (docs/validation.md, "Indirect light where surfaces meet"): the indirect part

@@ -271,13 +271,12 @@ namespace abrad::radiosity {
 /// `direct_at(element, x)`, when given, is the direct irradiance at point x of the element's
 /// region (the bake's exact vertex values, interpolated), or nothing where it has none; else,
 /// and where it has none, the elements' direct part is interpolated as their indirect part.
-using DirectAt =
+/// `indirect_at` likewise replaces the elements' interpolated indirect part.
+using FieldAt =
     std::function<std::optional<visdb::Rgb>(std::uint32_t element, const glm::dvec3& x)>;
-std::vector<visdb::Rgb> gather_indirect(const IndirectInput& input,
-                                        const IndirectSolution& solution,
-                                        const IndirectOptions& options,
-                                        std::span<const ProbePoint> points,
-                                        const DirectAt& direct_at = {},
-                                        const ProgressFn& progress = {});
+std::vector<visdb::Rgb> gather_indirect(
+    const IndirectInput& input, const IndirectSolution& solution, const IndirectOptions& options,
+    std::span<const ProbePoint> points, const FieldAt& direct_at = {},
+    const FieldAt& indirect_at = {}, const ProgressFn& progress = {});
 
 }  // namespace abrad::radiosity
