@@ -1423,6 +1423,17 @@ visdb::Rgb linear_at(const IndirectSolution& sol, std::uint32_t region, const gl
 // whole (plain + element).
 constexpr int kGatherCells = 8;
 
+// The centre of part `id` (an element's part, PartTargets)
+glm::dvec3 part_centre(const IndirectSolution& sol, std::uint32_t id) {
+    const std::uint32_t e = id / (kGatherCells * kGatherCells);
+    const std::uint32_t part = id % (kGatherCells * kGatherCells);
+    const IndirectSolution::Element& el = sol.elements[e];
+    const IndirectSolution::Grid& g = sol.grids[el.region];
+    const double a = el.cell.x + (double(part % kGatherCells) + 0.5) / kGatherCells;
+    const double b = el.cell.y + (double(part / kGatherCells) + 0.5) / kGatherCells;
+    return g.origin + sol.element_size * (a * g.u + b * g.v);
+}
+
 class PartTargets final : public Targets {
   public:
     PartTargets(const IndirectSolution& sol, std::span<const std::uint32_t> region)
@@ -1449,19 +1460,6 @@ class PartTargets final : public Targets {
         return e * kGatherCells * kGatherCells + part;
     }
 
-    std::uint32_t plain() const { return m_plain; }
-
-    // The centre of part `id` (id < plain())
-    glm::dvec3 centre(std::uint32_t id) const {
-        const std::uint32_t e = id / (kGatherCells * kGatherCells);
-        const std::uint32_t part = id % (kGatherCells * kGatherCells);
-        const IndirectSolution::Element& el = m_sol.elements[e];
-        const IndirectSolution::Grid& g = m_sol.grids[el.region];
-        const double a = el.cell.x + (double(part % kGatherCells) + 0.5) / kGatherCells;
-        const double b = el.cell.y + (double(part / kGatherCells) + 0.5) / kGatherCells;
-        return g.origin + m_sol.element_size * (a * g.u + b * g.v);
-    }
-
   private:
     static int floor_div(int i) {
         return i >= 0 ? i / kGatherCells : -((-i + kGatherCells - 1) / kGatherCells);
@@ -1474,19 +1472,19 @@ class PartTargets final : public Targets {
 
 }  // namespace
 
-std::vector<visdb::Rgb> gather_indirect(const IndirectInput& in, const IndirectSolution& sol,
-                                        const IndirectOptions& options,
-                                        std::span<const ProbePoint> points,
-                                        const FieldAt& direct_at, const FieldAt& indirect_at,
-                                        const ProgressFn& progress) {
-    std::vector<visdb::Rgb> h(points.size(), visdb::Rgb(0.0));
-    if (points.empty()) return h;
+IndirectGather::IndirectGather(const IndirectInput& in, const IndirectSolution& sol,
+                               const IndirectOptions& options, std::span<const ProbePoint> points,
+                               const ProgressFn& progress)
+    : m_sol(sol),
+      m_plain(static_cast<std::uint32_t>(sol.elements.size() * kGatherCells * kGatherCells)) {
+    m_start.assign(points.size() + 1, 0);
+    if (points.empty()) return;
     Outlines own;
     if (!in.outlines) own = outline_patches(in.patches, in.region, in.region_normal);
     const Outlines& o = in.outlines ? *in.outlines : own;
     ABRAD_CHECK(sol.visibility_whole.size() == o.patches.size() &&
                     sol.visibility_main.size() == o.patches.size(),
-                "gather_indirect: the solution was made from other visibility triangles");
+                "IndirectGather: the solution was made from other visibility triangles");
     const double size = sol.element_size;
     const Bvh bvh(o.patches);
     const Occluders occluders = large_occluders(o.patches, size * size, kNearOccluders * size);
@@ -1500,36 +1498,57 @@ std::vector<visdb::Rgb> gather_indirect(const IndirectInput& in, const IndirectS
                                      .targets = &targets,
                                      .occluders_first = &occluders,
                                      .fine_masks = false};
-    // What each element reflects: ρ times all it receives (the ambient term's share too)
-    const auto direct = [&](std::uint32_t e) { return sol.elements[e].direct; };
-    const auto indirect = [&](std::uint32_t e) { return sol.elements[e].indirect; };
+    std::vector<std::vector<Hit>> hits(points.size());
     ParallelProgress report(progress, "indirect: gathers", points.size());
     tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t k) {
         const ProbePoint& p = points[k];
         const ShootResult shot =
             shoot(ShooterFrame::at(p.x, p.n), o.patches, hemicube, shoot_options);
-        visdb::Rgb sum(0.0);
         for (const auto [id, f] : shot.hits) {
-            const bool part = id < targets.plain();
-            const std::uint32_t e =
-                part ? id / (kGatherCells * kGatherCells) : id - targets.plain();
-            const IndirectSolution::Element& el = sol.elements[e];
+            const IndirectSolution::Element& el = sol.elements[element_of(id)];
             // An element reflects from its front only
-            if (!(glm::dot(p.x - el.centroid, in.region_normal[el.region]) > 0.0)) continue;
-            if (!part) {
-                sum += f * el.reflectance * (el.direct + el.indirect);
+            if (glm::dot(p.x - el.centroid, in.region_normal[el.region]) > 0.0)
+                hits[k].push_back({id, static_cast<float>(f)});
+        }
+        report.add(1);
+    });
+    for (std::size_t k = 0; k < points.size(); ++k) {
+        m_start[k + 1] = m_start[k] + hits[k].size();
+        m_hits.insert(m_hits.end(), hits[k].begin(), hits[k].end());
+    }
+}
+
+std::uint32_t IndirectGather::element_of(std::uint32_t id) const {
+    return id < m_plain ? id / (kGatherCells * kGatherCells) : id - m_plain;
+}
+
+std::vector<visdb::Rgb> IndirectGather::values(const FieldAt& direct_at,
+                                               const FieldAt& indirect_at) const {
+    const IndirectSolution& sol = m_sol;
+    const auto direct = [&](std::uint32_t e) { return sol.elements[e].direct; };
+    const auto indirect = [&](std::uint32_t e) { return sol.elements[e].indirect; };
+    std::vector<visdb::Rgb> h(m_start.size() - 1, visdb::Rgb(0.0));
+    tbb::parallel_for(std::size_t{0}, h.size(), [&](std::size_t k) {
+        visdb::Rgb sum(0.0);
+        for (std::size_t n = m_start[k]; n < m_start[k + 1]; ++n) {
+            const auto [id, f] = m_hits[n];
+            const std::uint32_t e = element_of(id);
+            const IndirectSolution::Element& el = sol.elements[e];
+            // What the element reflects: ρ times all it receives (the ambient term's share
+            // too), at the part's centre or, for a whole element, its mean
+            if (id >= m_plain) {
+                sum += double(f) * el.reflectance * (el.direct + el.indirect);
                 continue;
             }
-            const glm::dvec3 c = targets.centre(id);
+            const glm::dvec3 c = part_centre(sol, id);
             std::optional<visdb::Rgb> d, i;
             if (direct_at) d = direct_at(e, c);
             if (!d) d = linear_at(sol, el.region, c, direct);
             if (indirect_at) i = indirect_at(e, c);
             if (!i) i = linear_at(sol, el.region, c, indirect);
-            sum += f * el.reflectance * (*d + *i);
+            sum += double(f) * el.reflectance * (*d + *i);
         }
         h[k] = sum;
-        report.add(1);
     });
     return h;
 }

@@ -218,15 +218,16 @@ VertexGather gather_near_boundaries(const BakeGeometry& sources, const Regions& 
     const IndirectOptions io = solver_options(options);
     // The first sweep sees the elements' indirect part interpolated over their cells; each
     // next one the export's as it stands (these vertices' last gathers, the interpolated
-    // elements elsewhere, scaled as conservative_indirect scales them)
+    // elements elsewhere, scaled as conservative_indirect scales them). The hemicubes are the
+    // same every sweep: shot once.
+    const IndirectGather gather(input, solution, io, points, progress);
     std::vector<visdb::Rgb> exported;
     const FieldAt indirect_at = [&](std::uint32_t e, const glm::dvec3& x) {
         return gouraud(exported, e, x);
     };
     for (int sweep = 0; sweep < kGatherSweeps; ++sweep) {
         if (sweep > 0) exported = conservative_indirect(target, solution, vertex_region, &out);
-        out.values = gather_indirect(input, solution, io, points, direct_at,
-                                     sweep > 0 ? indirect_at : FieldAt{}, progress);
+        out.values = gather.values(direct_at, sweep > 0 ? indirect_at : FieldAt{});
     }
     return out;
 }

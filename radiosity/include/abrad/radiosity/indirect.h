@@ -261,22 +261,41 @@ class PointIrradiance {
 
 namespace abrad::radiosity {
 
-/// A final gather from the element solution: the indirect irradiance at each point, a hemicube
-/// there (the rows' resolution and masks) seeing the visibility triangles, each sample
-/// carrying the reflected radiosity ρ(direct + indirect) of the element it lies in, from its
-/// front. Where the element field's interpolation extrapolates (within half a cell of a
-/// region's edge, IndirectSolution::interpolates), the gather follows the bend of the field
-/// that a corner's near surfaces put there. `input` and `options` are the solve's, `solution`
-/// its result. In parallel; progress as "indirect: gathers".
-/// `direct_at(element, x)`, when given, is the direct irradiance at point x of the element's
-/// region (the bake's exact vertex values, interpolated), or nothing where it has none; else,
-/// and where it has none, the elements' direct part is interpolated as their indirect part.
-/// `indirect_at` likewise replaces the elements' interpolated indirect part.
+/// A final gather from the element solution at given points: a hemicube at each (the rows'
+/// resolution and masks) sees the visibility triangles, each sample going to the part of an
+/// element's cell it lies in (8 × 8 parts a cell), from the element's front. The hemicubes are
+/// shot once, in parallel (progress as "indirect: gathers"); `values` then weighs what each
+/// part reflects, ρ(direct + indirect) at its centre, as often as the caller's fields change.
+/// Where the element field's interpolation extrapolates (within half a cell of a region's
+/// edge, IndirectSolution::interpolates), the gather follows the bend of the field that a
+/// corner's near surfaces put there. `input` and `options` are the solve's, `solution` its
+/// result (kept by reference: it must outlive the gather).
 using FieldAt =
     std::function<std::optional<visdb::Rgb>(std::uint32_t element, const glm::dvec3& x)>;
-std::vector<visdb::Rgb> gather_indirect(
-    const IndirectInput& input, const IndirectSolution& solution, const IndirectOptions& options,
-    std::span<const ProbePoint> points, const FieldAt& direct_at = {},
-    const FieldAt& indirect_at = {}, const ProgressFn& progress = {});
+class IndirectGather {
+  public:
+    IndirectGather(const IndirectInput& input, const IndirectSolution& solution,
+                   const IndirectOptions& options, std::span<const ProbePoint> points,
+                   const ProgressFn& progress = {});
+
+    /// Indirect irradiance at every point. `direct_at(element, x)`, when given, is the direct
+    /// irradiance at point x of the element's region (the bake's exact vertex values,
+    /// interpolated), or nothing where it has none; else, and where it has none, the
+    /// elements' direct part is interpolated over their cells (linear to a region's edge).
+    /// `indirect_at` likewise replaces the elements' interpolated indirect part.
+    std::vector<visdb::Rgb> values(const FieldAt& direct_at = {},
+                                   const FieldAt& indirect_at = {}) const;
+
+  private:
+    struct Hit {
+        std::uint32_t id;  // a part (element × 64 + part) or, from m_plain on, a whole element
+        float ff;
+    };
+    std::uint32_t element_of(std::uint32_t id) const;
+    const IndirectSolution& m_sol;
+    std::uint32_t m_plain = 0;
+    std::vector<std::size_t> m_start;  // per point, into m_hits
+    std::vector<Hit> m_hits;
+};
 
 }  // namespace abrad::radiosity
