@@ -329,14 +329,7 @@ void validate(const BakeOptions& o) {
     if (o.bounces < -1 || o.bounces > 1000)
         throw InputError("--bounces must be in [0, 1000] (or -1: until converged), got " +
                          std::to_string(o.bounces));
-    validate(IndirectOptions{.bounces = std::max(o.bounces, 0),
-                             .converge = o.converge,
-                             .element_size = o.element_size,
-                             .shooter_cells = o.shooter_cells,
-                             .overrelaxation = o.overrelaxation,
-                             .method = o.method,
-                             .row_resolution = o.element_resolution,
-                             .row_subpixels = o.element_subpixels});
+    validate(solver_options(o));
     if (!(o.reach >= 0.0 && o.reach < 1e7))
         throw InputError("--reach must be >= 0 metres (0 = unlimited), got " +
                          std::to_string(o.reach));

@@ -1429,8 +1429,9 @@ glm::dvec3 part_centre(const IndirectSolution& sol, std::uint32_t id) {
     const std::uint32_t part = id % (kGatherCells * kGatherCells);
     const IndirectSolution::Element& el = sol.elements[e];
     const IndirectSolution::Grid& g = sol.grids[el.region];
-    const double a = el.cell.x + (double(part % kGatherCells) + 0.5) / kGatherCells;
-    const double b = el.cell.y + (double(part / kGatherCells) + 0.5) / kGatherCells;
+    const std::uint32_t column = part % kGatherCells, row = part / kGatherCells;
+    const double a = el.cell.x + (column + 0.5) / kGatherCells;
+    const double b = el.cell.y + (row + 0.5) / kGatherCells;
     return g.origin + sol.element_size * (a * g.u + b * g.v);
 }
 

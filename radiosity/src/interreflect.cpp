@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <glm/common.hpp>
 #include <glm/vec2.hpp>
 #include <limits>
@@ -19,9 +18,6 @@
 
 namespace abrad::radiosity {
 
-namespace {
-
-// The solver's options from the bake's
 IndirectOptions solver_options(const BakeOptions& options) {
     return {.bounces = std::max(options.bounces, 0),
             .converge = options.converge,
@@ -36,6 +32,8 @@ IndirectOptions solver_options(const BakeOptions& options) {
             .row_subpixels = options.element_subpixels,
             .cluster = options.cluster};
 }
+
+namespace {
 
 // The solver's input from the bake's geometry (spans into `g`, `regions` and `region_normal`)
 IndirectInput solver_input(const BakeGeometry& g, const Regions& regions,

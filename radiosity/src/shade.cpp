@@ -127,8 +127,10 @@ std::vector<visdb::Rgb> conservative_indirect(const BakeGeometry& target,
         const glm::u32vec3 tri = mesh.triangles[t];
         const std::uint32_t r = vertex_region[tri.x];
         if (r >= regions) continue;
-        for (int k = 0; k < 3; ++k)
-            (fixed[tri[k]] ? kept : gouraud)[r] += target.area[t] / 3.0 * x[tri[k]];
+        visdb::Rgb scaled(0.0), held(0.0);
+        for (int k = 0; k < 3; ++k) (fixed[tri[k]] ? held : scaled) += x[tri[k]];
+        gouraud[r] += target.area[t] / 3.0 * scaled;
+        kept[r] += target.area[t] / 3.0 * held;
     }
     std::vector<visdb::Rgb> scale(regions, visdb::Rgb(1.0));
     for (std::size_t r = 0; r < regions; ++r)

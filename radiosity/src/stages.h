@@ -156,6 +156,9 @@ DiscontinuityMesh mesh_discontinuities(const BakeGeometry& g, const Bvh& bvh, Re
                                        const BakeOptions& options, visdb::BakeStats* stats,
                                        const ProgressFn& progress);
 
+/// The interreflection solver's options from the bake's.
+IndirectOptions solver_options(const BakeOptions& options);
+
 /// Interreflection on `g`'s triangles clustered per planar region (options.bounces != 0);
 /// fills stats->indirect but the per-vertex mean (shade_vertices adds it).
 IndirectSolution interreflect(const BakeGeometry& g, const Regions& regions,

@@ -167,6 +167,7 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     EXPECT_NE(message_of(o, "--element-resolution"), "");
     EXPECT_NE(message_of(o, "--element-subpixels"), "");
     EXPECT_NE(message_of(o, "--shooter-cells"), "");
+    EXPECT_NE(message_of(o, "--edge-gather"), "");
     EXPECT_EQ(message_of(o, "--subpixels"), "");
     EXPECT_EQ(message_of(o, "--lights"), "");
     EXPECT_EQ(message_of(o, "--refine-tolerance"), "");
@@ -176,6 +177,7 @@ TEST(Bake, SettingsTheBakeDoesNotUseAreErrors) {
     o.bounces = -1;  // converge
     EXPECT_EQ(message_of(o, "--converge"), "");
     EXPECT_EQ(message_of(o, "--ambient"), "");
+    EXPECT_EQ(message_of(o, "--edge-gather"), "");
     o.bounces = 3;  // Jacobi sweeps: the element grid is used, the convergence threshold is not
     EXPECT_EQ(message_of(o, "--element-size"), "");
     EXPECT_NE(message_of(o, "--converge"), "");

@@ -109,12 +109,27 @@ TEST_F(Cli, BadModelsExitTwoNamingFileAndLineAndLeaveDatabaseUntouched) {
 TEST_F(Cli, BadBakeSettingsExitTwoAndLeaveDatabaseUntouched) {
     const std::string db = baked_db();
     const std::string before = file_bytes(db);
-    for (const std::string opts :
-         {"--resolution 51", "--subpixels 5", "--bounces -2", "--bounces many", "--converge 0",
-          "--element-size 0", "--element-resolution 33", "--element-subpixels 6",
-          "--shooter-cells 0", "--overrelax 2", "--method nope", "--shading nope",
-          "--unknown-option 1", "--dm maybe", "--lights sun", "--dm-angle 30", "--refine-rounds -1",
-          "--refine-tolerance 0", "--refine-min-edge -2"}) {
+    for (const std::string opts : {"--resolution 51",
+                                   "--subpixels 5",
+                                   "--bounces -2",
+                                   "--bounces many",
+                                   "--converge 0",
+                                   "--element-size 0",
+                                   "--element-resolution 33",
+                                   "--element-subpixels 6",
+                                   "--shooter-cells 0",
+                                   "--overrelax 2",
+                                   "--method nope",
+                                   "--shading nope",
+                                   "--unknown-option 1",
+                                   "--dm maybe",
+                                   "--lights sun",
+                                   "--dm-angle 30",
+                                   "--refine-rounds -1",
+                                   "--refine-tolerance 0",
+                                   "--refine-min-edge -2",
+                                   "--edge-gather maybe",
+                                   "--bounces 0 --edge-gather on"}) {
         const Result r = run("bake --db " + db + " " + opts);
         EXPECT_EQ(r.status, 2) << opts << "\n" << r.output;
         EXPECT_NE(r.output.find("abrad"), std::string::npos);
