@@ -240,12 +240,16 @@ void IndirectSolution::index_cells() {
     }
 }
 
+glm::dvec2 IndirectSolution::centre_coordinates(std::uint32_t region, const glm::dvec3& p) const {
+    const Grid& g = grids[region];
+    return {glm::dot(p - g.origin, g.u) / element_size - 0.5,
+            glm::dot(p - g.origin, g.v) / element_size - 0.5};
+}
+
 visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const {
     if (region >= grids.size()) return visdb::Rgb(0.0);
-    const Grid& g = grids[region];
-    // Cell-centre coordinates: centre of cell (i, j) at (i, j)
-    const double s = glm::dot(p - g.origin, g.u) / element_size - 0.5;
-    const double t = glm::dot(p - g.origin, g.v) / element_size - 0.5;
+    const glm::dvec2 c = centre_coordinates(region, p);
+    const double s = c.x, t = c.y;
     const double fs = std::floor(s), ft = std::floor(t);
     const int i0 = static_cast<int>(fs), j0 = static_cast<int>(ft);
     const double a = s - fs, b = t - ft;
@@ -278,9 +282,8 @@ visdb::Rgb IndirectSolution::at(std::uint32_t region, const glm::dvec3& p) const
 
 bool IndirectSolution::interpolates(std::uint32_t region, const glm::dvec3& p) const {
     if (region >= grids.size()) return false;
-    const Grid& g = grids[region];
-    const int i0 = static_cast<int>(std::floor(glm::dot(p - g.origin, g.u) / element_size - 0.5));
-    const int j0 = static_cast<int>(std::floor(glm::dot(p - g.origin, g.v) / element_size - 0.5));
+    const glm::dvec2 c = centre_coordinates(region, p);
+    const int i0 = static_cast<int>(std::floor(c.x)), j0 = static_cast<int>(std::floor(c.y));
     for (int dj = 0; dj < 2; ++dj)
         for (int di = 0; di < 2; ++di)
             if (element_at(region, i0 + di, j0 + dj) == kNoElement) return false;
@@ -316,11 +319,12 @@ namespace {
 // the triangle).
 class ElementTargets final : public Targets {
   public:
-    ElementTargets(const IndirectSolution& sol, std::span<const std::uint32_t> region,
-                   std::vector<std::uint32_t> whole, std::vector<std::uint32_t> main)
-        : m_sol(sol), m_region(region), m_whole(std::move(whole)), m_main(std::move(main)) {}
+    // `region` per visibility triangle; the triangles' own targets are the solution's
+    // visibility_whole and visibility_main
+    ElementTargets(const IndirectSolution& sol, std::span<const std::uint32_t> region)
+        : m_sol(sol), m_region(region) {}
 
-    std::uint32_t whole(std::uint32_t t) const override { return m_whole[t]; }
+    std::uint32_t whole(std::uint32_t t) const override { return m_sol.visibility_whole[t]; }
 
     Grid grid(std::uint32_t t) const override {
         const IndirectSolution::Grid& g = m_sol.grids[m_region[t]];
@@ -329,13 +333,12 @@ class ElementTargets final : public Targets {
 
     std::uint32_t cell(std::uint32_t t, int i, int j) const override {
         const std::uint32_t e = m_sol.element_at(m_region[t], i, j);
-        return e != IndirectSolution::kNoElement ? e : m_main[t];
+        return e != IndirectSolution::kNoElement ? e : m_sol.visibility_main[t];
     }
 
   private:
     const IndirectSolution& m_sol;
     std::span<const std::uint32_t> m_region;
-    std::vector<std::uint32_t> m_whole, m_main;
 };
 
 // The solver's state: elements and their pieces, the rows computed so far, and the Southwell
@@ -588,10 +591,9 @@ class Solver {
         std::sort(m_element_triangle.begin(), m_element_triangle.end());
         m_vis = o.patches;
         m_sol.visibility_triangles = m_vis.size();
-        m_sol.visibility_whole = vis_whole;
-        m_sol.visibility_main = vis_main;
-        m_targets = std::make_unique<ElementTargets>(m_sol, o.region, std::move(vis_whole),
-                                                     std::move(vis_main));
+        m_sol.visibility_whole = std::move(vis_whole);
+        m_sol.visibility_main = std::move(vis_main);
+        m_targets = std::make_unique<ElementTargets>(m_sol, o.region);
     }
 
     // Shooters: the elements that shoot as one, from one point, with one row. A region's
@@ -1389,9 +1391,8 @@ namespace {
 template <class Value>
 visdb::Rgb linear_at(const IndirectSolution& sol, std::uint32_t region, const glm::dvec3& p,
                      const Value& value) {
-    const IndirectSolution::Grid& g = sol.grids[region];
-    const double s = glm::dot(p - g.origin, g.u) / sol.element_size - 0.5;
-    const double t = glm::dot(p - g.origin, g.v) / sol.element_size - 0.5;
+    const glm::dvec2 st = sol.centre_coordinates(region, p);
+    const double s = st.x, t = st.y;
     if (sol.interpolates(region, p)) {
         const int i0 = static_cast<int>(std::floor(s)), j0 = static_cast<int>(std::floor(t));
         const double a = s - i0, b = t - j0;
@@ -1444,7 +1445,7 @@ class PartTargets final : public Targets {
 
     std::uint32_t whole(std::uint32_t t) const override {
         const std::uint32_t e = m_sol.visibility_whole[t];
-        return e != IndirectSolution::kNoElement && e != kNoPatch ? m_plain + e : kNoPatch;
+        return e != IndirectSolution::kNoElement ? m_plain + e : kNoPatch;
     }
 
     Grid grid(std::uint32_t t) const override {

@@ -126,6 +126,8 @@ struct IndirectSolution {
     /// half a cell of the region's boundary (and on regions smaller than two cells), where
     /// `at` extrapolates the nearest centres' values: gather_indirect is for those points.
     bool interpolates(std::uint32_t region, const glm::dvec3& p) const;
+    /// `p` in the coordinates of `region`'s cell centres: the centre of cell (i, j) at (i, j).
+    glm::dvec2 centre_coordinates(std::uint32_t region, const glm::dvec3& p) const;
 
     // What the solution did
     std::size_t pieces = 0;  ///< parts of triangles in elements (triangle ∩ cell)
